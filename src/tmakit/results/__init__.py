@@ -1,7 +1,4 @@
-"""Results: what an estimator or a bound returns (estimates, bounds, observability).
-
-They are in one place below every estimator so that each can build and read them.
-"""
+"""Results: what an estimator or a bound returns (estimates, bounds, observability)."""
 
 from .answers import Answer, Ellipse, answer_from_state, estimate_answer, track_answer
 from .bound import Bound, bound_from_information

@@ -1,8 +1,6 @@
-"""Answers in the user's terms: where the emitter is, where it goes, how far and which way.
+"""Answers in the user's terms: position, course, speed, range and bearing, and the ellipse.
 
-Position (ENU, m; lat/lon when the origin is known), course (deg true), speed, range and bearing
-from a sensor, and the position ellipse, for the command line, the JSON and the pictures.  Std
-are linearised (the delta method); an unobservable quantity is ``None``, never a number.
+Std are linearised (the delta method); an unobservable quantity is ``None``, never a number.
 """
 
 from __future__ import annotations
@@ -24,12 +22,10 @@ KNOT = 1852.0 / 3600.0
 ELLIPSE_LEVEL = 0.95
 """Default probability inside the reported position ellipse."""
 
-#: A quantity is unobservable when its gradient's cosine with a state-space null direction
-#: (within the state components it depends on) exceeds this.
+#: A quantity is unobservable when its gradient's cosine with a null direction exceeds this.
 NULL_COSINE = 0.05
 
-#: An angle (course, bearing) whose linearised 1-sigma exceeds this (deg) is not determined by
-#: the data: its 95 % interval covers most of the circle, and the delta method no longer holds.
+#: An angle (course, bearing) whose linearised 1-sigma exceeds this (deg) is not determined.
 UNDETERMINED_ANGLE_DEG = 60.0
 #: A speed or range whose 1-sigma exceeds this multiple of its value is not determined.
 UNDETERMINED_RATIO = 3.0
@@ -68,12 +64,8 @@ class Ellipse:
 
     Parameters
     ----------
-    semi_major, semi_minor : float
-        m.
-    orientation_deg : float
-        Major axis, degrees true (0 to 180).
-    level : float
-        Probability inside (chi-square, 2 dof).
+    semi_major, semi_minor, orientation_deg, level : float
+        Semi-axes, m; the major axis, degrees true (0 to 180); the probability inside.
     """
 
     semi_major: float
@@ -100,26 +92,18 @@ class Answer:
 
     Parameters
     ----------
-    time : float
-        s since the set's time origin.
-    clock : str or None
-        The same time in UTC, when the origin is known.
-    dim : int
-    stationary : bool
-    enu, enu_std : tuple of (float or None)
-        East, North, Up and std, m.
+    time, clock : float, str or None
+        s since the set's time origin; the same time in UTC, when the origin is known.
+    dim, stationary : int, bool
+    enu, enu_std, velocity, velocity_std : tuple of (float or None)
+        East, North, Up, m and m/s.
     geodetic : tuple of (float or None) or None
         Latitude, longitude (deg), altitude (m); None without an origin.
-    velocity, velocity_std : tuple of (float or None)
-        East, North, Up, m/s.
     course_deg, course_std_deg, bearing_deg, bearing_std_deg : float or None
         Degrees true.
-    speed, speed_std : float or None
-        m/s.
+    speed, speed_std, range_m, range_std : float or None
+        m/s; slant range from ``sensor``, m.
     sensor : str or None
-        The sensor range and bearing are from.
-    range_m, range_std : float or None
-        Slant range, m.
     ellipse : Ellipse or None
     covariance : ndarray, shape (6, 6)
         ENU state covariance; infinite where unobservable.
@@ -242,14 +226,9 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
         Infinite or NaN entries mark unobservable directions.
     t : float
         s.
-    meas : MeasurementSet, optional
-        Origins and the sensor's track.
-    sensor : str, optional
-        Default the last measurement's.
-    dim : int
-    stationary : bool
-    level : float
-        Probability inside the ellipse.
+    meas, sensor, level : optional
+        As for :func:`estimate_answer`.
+    dim, stationary : int, bool
     null : ndarray, shape (6, r), optional
         The state's unobservable directions; what moves with them is None.
 
@@ -312,11 +291,7 @@ def _determined_size(name: str, v: float | None, s: float | None, unit: str, wea
 
 def bearing_interval(answer: Answer, meas: MeasurementSet | None,
                      level: float = ELLIPSE_LEVEL) -> tuple[float, float] | None:
-    """Give the bearing interval (centre, half-width; deg) at ``level``, or None if unknown.
-
-    The hull of the answer's linearised interval and of each bearing its sensor measured then,
-    ± z sigma (a towed array's twin: the side nearer the answer's).
-    """
+    """Give the hull (centre, half-width; deg) of the answer's and measured bearings' intervals."""
     z = float(np.sqrt(chi2_dist.ppf(level, 1)))
     spans = []  # (centre, half-width), rad
     if answer.bearing_deg is not None and answer.bearing_std_deg is not None:
@@ -365,9 +340,11 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
     ----------
     result : EstimateResult
     meas : MeasurementSet, optional
+        Origins and the sensor's track.
     time : float, optional
         s; default the last measurement time.
     sensor : str, optional
+        For range and bearing; default the last measurement's.
     level : float
         Probability inside the ellipse.
 
@@ -466,12 +443,10 @@ def track_answer(track: object, meas: MeasurementSet | None = None, index: int =
     Parameters
     ----------
     track : tmakit.filters.Track
-    meas : MeasurementSet, optional
     index : int
         The update (default the last).
-    sensor : str, optional
-    level : float
-        Probability inside the ellipse.
+    meas, sensor, level : optional
+        As for :func:`estimate_answer`.
 
     Returns
     -------

@@ -1,8 +1,4 @@
-"""A Cramér–Rao bound as a result: information, pseudo-inverse, std and ellipses.
-
-:func:`bound_from_information` builds it from any information matrix, so estimators (their
-covariance at the fit) and :mod:`tmakit.bounds` (the bound at the truth) report one object.
-"""
+"""A Cramér–Rao bound as a result (at the truth, or an estimate's covariance at the fit)."""
 
 from __future__ import annotations
 
@@ -15,7 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
 from ..motion import MotionModel
-from .answers import parameter_display, position_ellipse
+from .answers import finite, parameter_display, position_ellipse
 from .nuisance import KnownNuisance, as_known_nuisance
 from .observability import Observability, analyse
 
@@ -36,21 +32,16 @@ class Bound:
     ----------
     parameters : tuple of str
         The unknowns, motion parameters first.
-    values : ndarray, shape (q,)
-        SI.
-    information : ndarray, shape (q, q)
-        Fisher information, SI.
-    covariance : ndarray, shape (q, q)
-        Inverse information on the observable subspace (use ``std`` for the rest).
-    std : ndarray, shape (q,)
-        SI; infinite where unobservable.
+    values, std : ndarray, shape (q,)
+        SI; std infinite where unobservable.
+    information, covariance : ndarray, shape (q, q)
+        Fisher information, SI, and its inverse on the observable subspace.
     observability : Observability
     known_nuisance : KnownNuisance or None
         None when the nuisance parameters are unknowns.
     nuisance_values : dict of str to float
         At the evaluation point (Hz, Hz/s, dB).
-    motion : MotionModel
-    n_measurements : int
+    motion, n_measurements : MotionModel, int
 
     References
     ----------
@@ -114,11 +105,12 @@ class Bound:
         return float(full @ self.covariance @ full)
 
     def state_covariance(self, t: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Return the ENU target state at ``t`` (s) and its covariance (delta method).
+        """Return the ENU target state at ``t`` and its covariance (delta method).
 
         Parameters
         ----------
         t : float
+            s.
 
         Returns
         -------
@@ -128,7 +120,6 @@ class Bound:
         theta = self.values[: self.motion.n_params]
         state = self.motion.states(theta, np.array([float(t)]))[0]
         jac = self.motion.jacobian(theta, np.array([float(t)]))[0]  # (6, p)
-        cov = np.zeros((6, 6))
         full = np.zeros((6, len(self.parameters)))
         full[:, : jac.shape[1]] = jac
         cov = full @ self.covariance @ full.T
@@ -162,11 +153,12 @@ class Bound:
 
     def derived(self, t: float, sensor_position: ArrayLike | None = None
                 ) -> dict[str, tuple[float, float]]:
-        """Return derived quantities at time ``t`` (s) with their std.
+        """Return derived quantities at time ``t`` with their std.
 
         Parameters
         ----------
         t : float
+            s.
         sensor_position : array_like, shape (3,), optional
             ENU, m; adds ``range``.
 
@@ -213,9 +205,6 @@ class Bound:
         -------
         dict of str to object
         """
-        def clean(x: float) -> float | None:
-            return None if not np.isfinite(x) else float(x)
-
         cov = self.covariance.copy()
         bad = ~np.isfinite(self.std)
         cov[bad, :] = np.nan
@@ -223,8 +212,8 @@ class Bound:
         return {
             "parameters": list(self.parameters),
             "values": [float(v) for v in self.values],
-            "std": [clean(s) for s in self.std],
-            "covariance": [[clean(c) for c in row] for row in cov],
+            "std": [finite(s) for s in self.std],
+            "covariance": [[finite(c) for c in row] for row in cov],
             "rank": self.rank,
             "size": len(self.parameters),
             "unobservable": [d.as_dict() for d in self.observability.directions],
@@ -286,11 +275,8 @@ def bound_from_information(info: NDArray[np.float64], names: tuple[str, ...],
         Motion parameters first, then the nuisance unless known.
     values : ndarray, shape (q,)
         Where it was evaluated (truth or fit).
-    meas : MeasurementSet
-    motion : MotionModel
-    known_nuisance : KnownNuisance or None
-        None when the nuisance is among the unknowns.
-    nuisance_values : Mapping[str, float]
+    meas, motion, known_nuisance, nuisance_values
+        As for :class:`Bound`.
 
     Returns
     -------

@@ -1,11 +1,6 @@
 """Sanity checks that speak: an improbable fit, angles that look like radians, far positions.
 
-Each check returns :class:`SanityWarning` objects (a code and a sentence): ``improbable-chi2``
-(``P(chi2_dof >= chi2) < 0.001``), ``chi2-too-small`` (the low tail: the stated sigma are too
-large), ``radians`` (every angle within ``[-2 pi, 2 pi]``, at least :data:`RADIAN_MIN_ROWS`
-rows), ``several-solutions``, ``far-sensor`` / ``far-estimate`` (beyond
-:data:`FAR_FROM_ORIGIN`, where the flat ENU frame departs from the Earth) and
-``implausible-speed`` (above :data:`FAST_SPEED`).
+Each check returns :class:`SanityWarning` objects: a code and a sentence with the rule.
 """
 
 from __future__ import annotations
@@ -36,8 +31,7 @@ FAR_FACTOR = 10.0
 
 
 FAST_SPEED = 1e4
-"""An estimated speed (m/s) above this is warned about: 10 km/s, faster than an orbiting
-satellite (7.8 km/s) or any missile."""
+"""An estimated speed (m/s) above this is warned about (faster than an orbiting satellite)."""
 
 
 @dataclass(frozen=True)
@@ -46,23 +40,19 @@ class SanityWarning:
 
     Parameters
     ----------
-    code : str
-        ``improbable-chi2``, ``chi2-too-small``, ``several-solutions``, ``radians``,
-        ``far-sensor``, ``far-estimate`` or ``implausible-speed``.
-    message : str
-        What was seen, the rule, and what to do.
+    code, message : str
+        E.g. ``improbable-chi2``; what was seen, the rule, and what to do.
     """
 
     code: str
     message: str
 
     def as_dict(self) -> dict[str, str]:
-        """Return the warning as JSON-ready data.
+        """Return ``{"code": ..., "message": ...}``.
 
         Returns
         -------
         dict
-            ``{"code": ..., "message": ...}``.
         """
         return {"code": self.code, "message": self.message}
 
@@ -79,10 +69,7 @@ def chi2_warning(chi2: float, dof: int, limit: float = CHI2_P_LIMIT) -> SanityWa
 
     Parameters
     ----------
-    chi2 : float
-    dof : int
-    limit : float
-        Default 0.001.
+    chi2, dof, limit : float, int, float
 
     Returns
     -------
@@ -197,7 +184,7 @@ def measurement_warnings(meas: MeasurementSet, farthest: tuple[int, float] | Non
     ----------
     meas : MeasurementSet
     farthest : (int, float), optional
-        As for :func:`sensor_distance_warnings`.
+        The row of the sensor farthest from the origin and its distance, m, if known.
 
     Returns
     -------
@@ -276,13 +263,10 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
     farthest = _farthest_sensor(meas) if len(meas) else None
     found = measurement_warnings(meas, farthest)
     chi2, dof = float(result.chi2), int(result.dof)  # type: ignore[attr-defined]
-    for w in (chi2_warning(chi2, dof), chi2_low_warning(chi2, dof)):
-        if w is not None:
-            found.append(w)
     solutions = getattr(result, "solutions", [])
-    for w in (solutions_warning(solutions), range_spread_warning(solutions, meas)):
-        if w is not None:
-            found.append(w)
+    found += [w for w in (chi2_warning(chi2, dof), chi2_low_warning(chi2, dof),
+                          solutions_warning(solutions), range_spread_warning(solutions, meas))
+              if w is not None]
     theta = np.asarray(result.estimate, dtype=np.float64)  # type: ignore[attr-defined]
     if np.all(np.isfinite(theta)) and len(meas):
         motion = result.motion  # type: ignore[attr-defined]
@@ -355,9 +339,8 @@ def normalised_residuals(result: object, meas: MeasurementSet,
 
     Parameters
     ----------
-    result : EstimateResult
-    meas : MeasurementSet
-        The measurements fitted.
+    result, meas : EstimateResult, MeasurementSet
+        A fit and the measurements fitted.
     options : mapping, optional
         The fit's measurement-model options.
 
@@ -376,9 +359,7 @@ def normalised_residuals(result: object, meas: MeasurementSet,
 
 def scale_sigma(meas: MeasurementSet, residuals: NDArray[np.float64], dof: int
                 ) -> tuple[MeasurementSet, dict[str, float]]:
-    """Rescale each kind's sigma so that the fit's chi-square per degree of freedom becomes 1.
-
-    Kind ``k`` gets ``s_k = sqrt(sum z_k^2 / (n_k dof / n))``, ``z`` the normalised residuals.
+    """Rescale each kind's sigma by ``sqrt(sum z_k^2 / (n_k dof / n))``: chi2/dof becomes 1.
 
     Parameters
     ----------
@@ -391,7 +372,6 @@ def scale_sigma(meas: MeasurementSet, residuals: NDArray[np.float64], dof: int
     -------
     scaled : MeasurementSet
     factors : dict of str to float
-        The factor per kind.
 
     Raises
     ------

@@ -1,8 +1,4 @@
-"""Where and when a measurement set is: its ENU origin, its clock-time origin, its sensors.
-
-The metadata keys read here: ``origin_lat``, ``origin_lon``, ``origin_alt`` (the ENU origin,
-degrees and metres) and ``time_origin`` (the UTC clock time of t = 0 s, ISO-8601).
-"""
+"""Where and when a measurement set is: its ENU origin, its clock-time origin, its sensors."""
 
 from __future__ import annotations
 

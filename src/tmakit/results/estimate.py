@@ -1,9 +1,4 @@
-"""A batch estimate as a result: :class:`EstimateResult` and the functions that build it.
-
-From a weighted least-squares fit (:func:`assemble_result`, the Gauss–Newton of the
-Doppler-tracking lecture notes), from a method's own covariance (:func:`result_from_covariance`,
-Gu et al. (2007) §3-4) or for a divergence (:func:`diverged_result`).
-"""
+"""A batch estimate as a result: :class:`EstimateResult` and the functions that build it."""
 
 from __future__ import annotations
 
@@ -50,19 +45,16 @@ class EstimateResult:
     covariance : ndarray, shape (p, p)
     nuisance : dict
         ``{name: (value, std)}`` (std 0 when known).
-    status : Status
-    iterations : int
+    status, message : Status, str
+    iterations, dof, starts : int
+        Iterations, degrees of freedom, starting points solved.
     chi2 : float
         The weighted sum of squares at the estimate.
-    dof : int
     method : str
         A key of :data:`tmakit.batch.METHODS`.
     motion : MotionModel
     bound : Bound, optional
         The information at the estimate (None for the papers' own covariances).
-    starts : int, optional
-        Starting points solved.
-    message : str, optional
     extra : dict, optional
         Method-specific diagnostics.
     solutions : list of Solution, optional
@@ -110,17 +102,12 @@ class EstimateResult:
                         time: float | None = None, level: float = ELLIPSE_LEVEL) -> bool:
         """Tell whether a horizontal position lies in the reported region at ``time``.
 
-        The union of the solutions' ellipses, and the bearing interval where the range is
-        undetermined (solutions' ranges disjoint, or :attr:`wider` leaves it so).
-
         Parameters
         ----------
         position : array_like
             East, North, m.
-        meas : MeasurementSet, optional
-        time : float, optional
-            s; default the last measurement time.
-        level : float
+        meas, time, level : optional
+            As for :meth:`answer`.
 
         Returns
         -------
@@ -152,8 +139,7 @@ class EstimateResult:
         ----------
         meas : MeasurementSet, optional
             The measurements fitted: with them ``answer``, ``warnings`` and ``geodetic`` are filled.
-        answer : Answer, optional
-        warnings : sequence of SanityWarning, optional
+        answer, warnings : Answer, sequence of SanityWarning, optional
         sigma_scale : mapping of str to float, optional
             Each kind's sigma factor (``--scale-sigma``).
 
@@ -214,17 +200,12 @@ class EstimateResult:
 
     def answer(self, meas: MeasurementSet | None = None, time: float | None = None,
                sensor: str | None = None, level: float = ELLIPSE_LEVEL) -> Answer:
-        """Return the estimate in the user's terms (:mod:`tmakit.results.answers`).
+        """Return the estimate in the user's terms (:func:`~tmakit.results.estimate_answer`).
 
         Parameters
         ----------
-        meas : MeasurementSet, optional
-        time : float, optional
-            s; default the last measurement time.
-        sensor : str, optional
-            For range and bearing; default the last measurement's.
-        level : float
-            Probability inside the position ellipse.
+        meas, time, sensor, level : optional
+            As for :func:`~tmakit.results.estimate_answer`.
 
         Returns
         -------
@@ -233,7 +214,7 @@ class EstimateResult:
         return estimate_answer(self, meas, time, sensor, level)
 
     def warnings(self, meas: MeasurementSet) -> list[SanityWarning]:
-        """Return the sanity warnings of the fit (:mod:`tmakit.results.checks`).
+        """Return the sanity warnings of the fit on ``meas`` (:func:`~tmakit.results.fit_warnings`).
 
         Parameters
         ----------
@@ -265,9 +246,8 @@ class EstimateResult:
 
         Parameters
         ----------
-        meas, answer, warnings, sigma_scale : optional
-            As for :meth:`as_dict`.
-        indent : int or None
+        meas, answer, warnings, sigma_scale, indent : optional
+            As for :meth:`as_dict`; the JSON indent.
 
         Returns
         -------
@@ -338,12 +318,8 @@ def diverged_result(motion: MotionModel, nuisance_names: Sequence[str], iteratio
 
     Parameters
     ----------
-    motion : MotionModel
-    nuisance_names : sequence of str
-    iterations, dof : int
-    method, message : str
-    starts : int, optional
-    extra : dict, optional
+    motion, nuisance_names, iterations, dof, method, message, starts, extra
+        As the fields of :class:`EstimateResult` (``nuisance_names``: its nuisance's keys).
 
     Returns
     -------
@@ -367,19 +343,11 @@ def result_from_covariance(motion: MotionModel, theta: NDArray[np.float64],
 
     Parameters
     ----------
-    motion : MotionModel
     theta : ndarray, shape (p,)
     covariance : ndarray, shape (q, q), q >= p
         The motion parameters first.
-    nuisance : dict
-        ``{name: (value, std)}``.
-    status : Status
-    iterations : int
-    chi2 : float
-    dof : int
-    method : str
-    message : str, optional
-    extra : dict, optional
+    motion, nuisance, status, iterations, chi2, dof, method, message, extra
+        As the fields of :class:`EstimateResult`.
 
     Returns
     -------
@@ -409,17 +377,13 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.
         Motion parameters and nuisance at the fit, SI.
     cost : float
         Half the weighted sum of squares.
-    iterations : int
     converged : bool
-    method : str
-    starts : int
-    known_nuisance : KnownNuisance or None
+    iterations, method, starts, known_nuisance
+        As the fields of :class:`EstimateResult`; nuisance known (None: estimated).
     note : str, optional
         Appended to the message.
-    jacobian : (ndarray, ndarray), optional
-        ``obs.jacobian_grouped(theta, nu)`` if the caller has it.
-    information : ndarray, optional
-        The Fisher information at the fit if the solver has it.
+    jacobian, information : optional
+        ``obs.jacobian_grouped(theta, nu)`` and the Fisher information, if the caller has them.
 
     Returns
     -------

@@ -1,9 +1,4 @@
-"""Which nuisance parameters are known: one type, :class:`KnownNuisance`, for all.
-
-``None`` means all unknown (the default); a :class:`KnownNuisance` holds them at its values,
-the others from the context.  :func:`as_known_nuisance` also accepts ``True``/``False`` and a
-mapping ``{name: value}``.
-"""
+"""Which nuisance parameters are known: one type, :class:`KnownNuisance` (None: all unknown)."""
 
 from __future__ import annotations
 
@@ -17,9 +12,7 @@ __all__ = ["KnownNuisance", "KnownNuisanceLike", "as_known_nuisance"]
 
 @dataclass(frozen=True)
 class KnownNuisance:
-    """The nuisance parameters are known (held fixed, not estimated), at ``values``.
-
-    Always true in a boolean test, even with no values.
+    """The nuisance parameters are known (held, not estimated), at ``values``; always true.
 
     Parameters
     ----------
@@ -31,12 +24,12 @@ class KnownNuisance:
     values: Mapping[str, float] = field(default_factory=dict, hash=False)
 
     def __post_init__(self) -> None:
-        """Store the values as a plain ``dict`` of floats (a copy)."""
+        """Copy the values into a ``dict`` of floats."""
         object.__setattr__(self, "values",
                            {str(k): float(v) for k, v in dict(self.values).items()})
 
     def __bool__(self) -> bool:
-        """Return True: the nuisance parameters are known."""
+        """Return True: the nuisance is known."""
         return True
 
     def over(self, context: Mapping[str, float]) -> dict[str, float]:

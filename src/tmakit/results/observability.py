@@ -1,9 +1,7 @@
-"""Observability: the rank of the Fisher information and what the data cannot see.
+"""Observability: the rank of the normalised Fisher information and what the data cannot see.
 
-The rank is that of the normalised information ``D F D``.  Unobservable directions are named
-by testing candidate motions that leave the measurements unchanged (rotations about sensors,
-translations, scalings about a sensor); angles alone from one straight leg never give range,
-whatever the motion model assumes.
+Unobservable directions are named by testing candidate motions that leave the measurements
+unchanged (rotations about sensors, translations, scalings about a sensor).
 """
 
 from __future__ import annotations
@@ -53,12 +51,11 @@ class Direction:
     weights: dict[str, float] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, object]:
-        """Return the JSON form: the sentence and the weights by parameter.
+        """Return ``{"sentence": ..., "weights": ...}``.
 
         Returns
         -------
         dict of str to object
-            ``{"sentence": ..., "weights": ...}``.
         """
         return {"sentence": self.sentence, "weights": self.weights}
 
@@ -69,9 +66,8 @@ class Observability:
 
     Parameters
     ----------
-    rank : int
-    size : int
-        Number of unknowns.
+    rank, size : int
+        Rank and number of unknowns.
     condition : float
         Of the normalised information.
     null_basis : ndarray, shape (size, size - rank)
@@ -79,17 +75,15 @@ class Observability:
     directions : list of Direction
     observable : ndarray of bool, shape (size,)
     decomposition : tuple of ndarray, optional
-        Eigenvalues, eigenvectors and normalisation ``D``.
+        Eigenvalues (ascending), eigenvectors and normalisation ``D`` the rank came from.
     """
 
     rank: int
     size: int
     condition: float
-    null_basis: NDArray[np.float64]  # (size, nullity), physical units, unit columns
+    null_basis: NDArray[np.float64]
     directions: list[Direction]
-    observable: NDArray[np.bool_]    # per parameter
-    # The eigen-decomposition of the normalised information (ascending eigenvalues, their
-    # vectors, the normalisation D) that the rank came from, for the pseudo-inverse.
+    observable: NDArray[np.bool_]
     decomposition: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = (
         field(default=None, repr=False, compare=False))
 
@@ -218,8 +212,7 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
         SI.
     names : tuple of str
         Motion parameters first, then unknown nuisance.
-    meas : MeasurementSet
-    motion : MotionModel
+    meas, motion : MeasurementSet, MotionModel
     theta : ndarray, shape (p,)
         Where ``info`` was evaluated, SI.
 

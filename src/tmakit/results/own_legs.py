@@ -1,8 +1,7 @@
-"""A sensor's path cut into straight legs, and in words: what bearings-only range needs.
+"""A sensor's path cut into straight legs and turns, and what bearings-only range needs.
 
 Angles from a sensor holding course and speed do not give range until it manoeuvres (Nardone &
-Aidala 1981; Fogel & Gavish 1988).  :func:`straight_legs` finds the legs, :func:`range_words`
-says why range is unseen and which manoeuvre would give it.
+Aidala 1981; Fogel & Gavish 1988).
 """
 
 from __future__ import annotations
@@ -25,17 +24,7 @@ LEG_SPEED_CHANGE = 0.1
 
 @dataclass(frozen=True)
 class Leg:
-    """One straight leg of a sensor.
-
-    Parameters
-    ----------
-    start, stop : float
-        First and last times, s.
-    course_deg : float
-        Degrees true.
-    speed : float
-        Mean speed, m/s.
-    """
+    """One straight leg of a sensor: first and last times (s), course (deg true), speed (m/s)."""
 
     start: float
     stop: float
@@ -123,26 +112,15 @@ TURN_RATE_DEG_S = 0.1
 """A heading rate (deg/s) above which the own ship is turning (6°/min; ships turn at 0.3-3°/s)."""
 
 RATE_WINDOW_S = 60.0
-"""The heading rate is the slope of a least-squares line through the headings within this many
-seconds (centred), at least the fixes either side: navigation noise of 1° on 1 s fixes gives a
-rate noise of 0.008°/s."""
+"""The heading rate is the slope of a line through the headings within this many seconds."""
 
 MIN_TURN_DEG = 10.0
-"""A turn changes the heading by at least this much (deg) from one leg to the next: a run of
-high rate that does not is noise, and its legs are one."""
+"""A turn changes the heading by at least this much (deg) from one leg to the next."""
 
 
 @dataclass(frozen=True)
 class Turn:
-    """One own-ship turn between two legs.
-
-    Parameters
-    ----------
-    start, stop : float
-        Where the heading leaves the leg before and reaches the leg after, s.
-    change_deg : float
-        Heading change, deg, positive to starboard.
-    """
+    """One own-ship turn: leaves the leg before, reaches the leg after (s), heading change (deg)."""
 
     start: float
     stop: float
@@ -155,10 +133,8 @@ class LegsAndTurns:
 
     Parameters
     ----------
-    legs : list of Leg
-        In time order.
-    turns : list of Turn
-        ``turns[k]`` between ``legs[k]`` and ``legs[k + 1]``.
+    legs, turns : list of Leg, list of Turn
+        In time order; ``turns[k]`` between ``legs[k]`` and ``legs[k + 1]``.
     turn_rate_deg_s, window_s, min_turn_deg : float
         The thresholds.
     """
@@ -170,11 +146,12 @@ class LegsAndTurns:
     min_turn_deg: float
 
     def leg_of(self, time: NDArray[np.float64]) -> NDArray[np.intp]:
-        """Return the leg index of each time (s), -1 in a turn or outside every leg.
+        """Return the leg index of each time, -1 in a turn or outside every leg.
 
         Parameters
         ----------
         time : ndarray
+            s.
 
         Returns
         -------
@@ -320,7 +297,7 @@ def own_ship_legs(meas: MeasurementSet, sensor: str | None = None, *,
     sensor : str, optional
         Default the set's only one.
     turn_rate_deg_s, window_s, min_turn_deg : float
-        The thresholds.
+        The thresholds (deg/s, s, deg).
 
     Returns
     -------

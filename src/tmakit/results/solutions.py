@@ -2,12 +2,8 @@
 
 A fit is kept when its likelihood-ratio statistic against the reported fit,
 ``Λ = (χ²_k + c u_k) − (χ²_best + c u_best)``, has ``P(χ²_d ≥ Λ) ≥ alpha`` (Wilks; ``c`` the
-price of one unknown, ``ln N`` for BIC).  Fits within the chi-square(4) quantile of each other
-at the answer time are one solution, the better one's covariance widened to cover the other
-(:func:`~tmakit.results.answers.covering_scale`).  The reported region is the union of the
-solutions' ellipses, or of a solution's bearing interval where its range is undetermined;
-where two solutions' range intervals are disjoint (:func:`range_spread`, minima along the line
-of sight) the range is not determined and the reported fit's bearing interval joins it.
+price of one unknown); fits close at the answer time are one solution, the better one's
+covariance widened to cover the other.  docs/estimation.md describes the reported region.
 """
 
 from __future__ import annotations
@@ -53,8 +49,7 @@ SOLUTION_ALPHA = 0.05
 """Level of the likelihood-ratio test that keeps a separated solution."""
 
 SAME_MINIMUM = 1.01
-"""A close fit whose ellipse lies inside once the variance is widened by less than 1 % is the
-same minimum reached again (from another start): it widens nothing."""
+"""A close fit covered by a variance widened less than this is the same minimum: no widening."""
 
 
 @dataclass(eq=False)
@@ -66,10 +61,8 @@ class Solution:
     result : EstimateResult
     rank : int
         1 for the reported fit.
-    lr_statistic : float
-        ``Λ_k``, at least 0.
-    p_value : float
-        ``P(χ²_d ≥ lr_statistic)``.
+    lr_statistic, p_value : float
+        ``Λ_k`` (at least 0) and ``P(χ²_d ≥ lr_statistic)``.
     """
 
     result: EstimateResult
@@ -94,14 +87,12 @@ class Solution:
 
     def region_contains(self, position: ArrayLike, meas: MeasurementSet | None = None,
                         time: float | None = None, level: float = ELLIPSE_LEVEL) -> bool:
-        """Tell whether a horizontal position (East, North, m) lies in this solution's ellipse.
-
-        Where the answer leaves the range undetermined: whether its bearing lies in
-        :func:`~tmakit.results.answers.bearing_interval`.
+        """Tell whether a horizontal position lies in this solution's ellipse (or bearing interval).
 
         Parameters
         ----------
         position : array_like
+            East, North, m.
         meas, time, level : optional
             As for :meth:`answer`.
 
@@ -128,7 +119,7 @@ class Solution:
         Parameters
         ----------
         meas : MeasurementSet, optional
-            With it, the answer at the last measurement time.
+            For the answer at the last measurement time.
 
         Returns
         -------
@@ -176,10 +167,7 @@ def _unknowns(result: EstimateResult) -> int:
 def range_spread(solutions: Sequence[Solution], meas: MeasurementSet | None,
                  time: float | None = None, level: float = ELLIPSE_LEVEL
                  ) -> tuple[float, float] | None:
-    """Give the smallest and largest range (m) when two solutions' range intervals disjoin.
-
-    The intervals at ``level`` from the answers' sensor at ``time``; None when all overlap.
-    """
+    """Give the smallest and largest range (m) when two solutions' range intervals disjoin."""
     z = float(np.sqrt(chi2_dist.ppf(level, 1)))
     ranges = [(a.range_m, a.range_std) for a in (s.answer(meas, time, level=level)
                                                  for s in solutions)
@@ -197,15 +185,11 @@ def separated_solutions(best: EstimateResult, others: Sequence[EstimateResult],
 
     Parameters
     ----------
-    best : EstimateResult
-        The reported fit (rank 1).
-    others : sequence of EstimateResult
-        Other fits the search ended in.
+    best, others : EstimateResult, sequence of EstimateResult
+        The reported fit (rank 1); other fits the search ended in.
     meas : MeasurementSet
-    alpha : float
-        Level of the test.
-    price : float
-        Chi2 per unknown (0: fits of one model).
+    alpha, price : float
+        Level of the test; chi2 per unknown (0: fits of one model).
 
     Returns
     -------

@@ -24,16 +24,13 @@ def fit_status(converged: bool, bound: Bound, unknowns: int) -> tuple[Status, st
 
     Parameters
     ----------
-    converged : bool
-    bound : Bound
-        The information at the fit (rank deficient: ``unobservable``).
-    unknowns : int
+    converged, bound, unknowns : bool, Bound, int
+        The bound: the information at the fit (rank deficient: ``unobservable``).
 
     Returns
     -------
-    status : Status
-    message : str
-        Empty for a converged, observable fit.
+    status, message : Status, str
+        The message empty for a converged, observable fit.
     """
     if not bound.observability.full_rank:
         return UNOBSERVABLE, (f"the data determine only {bound.rank} of the {unknowns} "

@@ -1,8 +1,4 @@
-"""How far to trust an estimate: ``ok``, ``warning`` or ``none``, with the reasons.
-
-``none``: not converged (no answer, ``tma`` exits 4); ``warning``: at least one warning;
-``ok``: converged without one.  :func:`trust_of` is the one rule.
-"""
+"""How far to trust an estimate: ``ok``, ``warning`` or ``none`` (not converged), with reasons."""
 
 from __future__ import annotations
 
@@ -51,8 +47,7 @@ def trust_of(result: object, warnings: Sequence[SanityWarning]) -> Trust:
 
     Parameters
     ----------
-    result : EstimateResult or Bound
-    warnings : sequence of SanityWarning
+    result, warnings : EstimateResult or Bound, sequence of SanityWarning
 
     Returns
     -------
@@ -77,9 +72,8 @@ def bound_trust(bound: object, warnings: Sequence[SanityWarning] = ()) -> Trust:
 
     Parameters
     ----------
-    bound : Bound
-    warnings : sequence of SanityWarning
-        The measurements' warnings.
+    bound, warnings : Bound, sequence of SanityWarning
+        The bound and the measurements' warnings.
 
     Returns
     -------
