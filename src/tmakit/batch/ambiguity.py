@@ -80,8 +80,7 @@ class LegSide:
     @property
     def likelihood_ratio(self) -> float:
         """``exp(delta_chi2 / 2)``: how much likelier the chosen side is (inf past 1e300)."""
-        return float(np.exp(min(self.delta_chi2, 1381.0) / 2.0)) if self.delta_chi2 < 1381.0 \
-            else float("inf")
+        return float(np.exp(self.delta_chi2 / 2.0)) if self.delta_chi2 < 1381.0 else np.inf
 
     def as_dict(self) -> dict[str, object]:
         """Return the JSON form."""

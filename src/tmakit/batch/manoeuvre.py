@@ -1006,13 +1006,9 @@ def estimate_for(meas: MeasurementSet, motion: PiecewiseCurvilinear | str,
 
     Parameters
     ----------
-    meas : MeasurementSet
-    motion : PiecewiseCurvilinear or str
-        ``M`` manoeuvres (or ``"curvilinear:M"``) searches ``0..M``; other names go to
-        :func:`tmakit.batch.ml.estimate`.
-    init, options, known_nuisance, max_iter, exact, criterion, alpha : optional
-        As for :func:`tmakit.batch.estimate`.
-    accelerations, ref_time, settings : optional
+    meas, motion, init, options, known_nuisance, max_iter
+        As for :func:`tmakit.batch.estimate` (other motion names go to ``ml.estimate``).
+    exact, criterion, alpha, accelerations, ref_time, settings : optional
         As for :func:`tmakit.batch.estimate`.
 
     Returns
