@@ -63,7 +63,7 @@ def test_subset_information_scaled_is_the_whole_sets(large) -> None:
     ys = meas.value_si[None]
     subset = ml.presolve_subset(problem)
     start = ml.grid_starts(problem, ys, GridSettings(), subset)[0].first(1)
-    theta, near, information = ml._presolve(problem, ys, start, 100, subset)
+    theta, near, information = ml.presolve(problem, ys, start, 100, subset)
     assert near
     full = normal_equations(problem.evaluate_part(theta, _data_part(problem, meas),
                                                   np.zeros((1, 0))), None)[0][0]
