@@ -1,7 +1,4 @@
-"""Maximum likelihood for a manoeuvring target (Hörst & Oispuu (2010)): the stable public path.
-
-The estimator itself is the package :mod:`tmakit.batch.manoeuvre`.
-"""
+"""The stable public path of :mod:`tmakit.batch.manoeuvre` (Hörst & Oispuu (2010))."""
 
 from .manoeuvre import (
     ACCELERATIONS,

@@ -262,10 +262,10 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
             where = np.array([where[0], where[1], state[2]])
         rng, rng_sd, brg, brg_sd = _size_and_direction(state[:3] - where, 0, cov, null)
     weak: list[str] = []
-    course, course_sd = _determined_angle("course", course, course_sd, weak)
-    speed, speed_sd = _determined_size("speed", speed, speed_sd, "m/s", weak)
-    rng, rng_sd = _determined_size("range", rng, rng_sd, "m", weak)
-    brg, brg_sd = _determined_angle("bearing", brg, brg_sd, weak)
+    course, course_sd = _determined("course", course, course_sd, weak)
+    speed, speed_sd = _determined("speed", speed, speed_sd, weak, "m/s")
+    rng, rng_sd = _determined("range", rng, rng_sd, weak, "m")
+    brg, brg_sd = _determined("bearing", brg, brg_sd, weak)
     return Answer(float(t), clock_time(meas, t), dim, stationary, tuple(enu), tuple(enu_sd), geo,
                   tuple(vel), tuple(vel_sd), course, course_sd, speed, speed_sd, sensor, rng,
                   rng_sd, brg, brg_sd,
@@ -273,19 +273,14 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
                   altitude_reference(meas), tuple(weak))
 
 
-def _determined_angle(name: str, v: float | None, s: float | None, weak: list[str]
-                      ) -> tuple[float | None, float | None]:
-    if v is None or s is None or s <= UNDETERMINED_ANGLE_DEG:
+def _determined(name: str, v: float | None, s: float | None, weak: list[str],
+                unit: str | None = None) -> tuple[float | None, float | None]:
+    """Give ``v, s``, or None (said in ``weak``) where the 1-sigma is too large (no unit: deg)."""
+    if v is None or s is None or s <= (UNDETERMINED_ANGLE_DEG if unit is None
+                                       else UNDETERMINED_RATIO * v):
         return v, s
-    weak.append(f"{name} (1-sigma {s:.0f} deg)")
-    return None, None
-
-
-def _determined_size(name: str, v: float | None, s: float | None, unit: str, weak: list[str]
-                     ) -> tuple[float | None, float | None]:
-    if v is None or s is None or s <= UNDETERMINED_RATIO * v:
-        return v, s
-    weak.append(f"{name} (1-sigma {s:.3g} {unit} against {v:.3g} {unit})")
+    weak.append(f"{name} (1-sigma {s:.0f} deg)" if unit is None
+                else f"{name} (1-sigma {s:.3g} {unit} against {v:.3g} {unit})")
     return None, None
 
 

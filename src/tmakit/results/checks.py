@@ -16,6 +16,8 @@ from ..core import chi2 as chi2_dist
 from ..data import KIND_CODES, MeasurementSet
 from ..measurements import model_for
 from ..observation import ObservationModel
+from .answers import bearing_interval, estimate_answer
+from .solutions import range_spread
 
 CHI2_P_LIMIT = 0.001
 """A fit whose chi-square has a smaller upper-tail probability is flagged improbable."""
@@ -229,9 +231,6 @@ def solutions_warning(solutions: list[Any]) -> SanityWarning | None:
 
 def range_spread_warning(solutions: list[Any], meas: MeasurementSet) -> SanityWarning | None:
     """Warn that the solutions' ranges disagree: the range is not determined, only the bearing."""
-    from .answers import bearing_interval
-    from .solutions import range_spread
-
     spread = range_spread(solutions, meas) if len(meas) else None
     if spread is None:
         return None
@@ -297,8 +296,6 @@ def wider_undetermined(wider: Any, meas: MeasurementSet | None, time: float | No
 
 def wider_model_warning(result: object, meas: MeasurementSet) -> SanityWarning | None:
     """Warn that the position holds only under the reported fit's model."""
-    from .answers import bearing_interval, estimate_answer
-
     wider = getattr(result, "wider", None)
     if wider is None or not len(meas):
         return None
@@ -320,8 +317,6 @@ def wider_model_warning(result: object, meas: MeasurementSet) -> SanityWarning |
 
 def undetermined_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
     """Return a warning when the answer leaves out quantities the data do not determine."""
-    from .answers import estimate_answer
-
     weak = estimate_answer(result, meas).undetermined
     if not weak:
         return []
