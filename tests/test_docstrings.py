@@ -116,12 +116,16 @@ def public_module(path: Path) -> bool:
     return not any(p.startswith("_") and p != "__init__" for p in parts)
 
 
+#: Modules (not packages) whose ``__all__`` is public API: docs/ teaches importing from them.
+PUBLIC_MODULES = ["tmakit.batch.manoeuvre"]
+
+
 def exported() -> set[str]:
     """``path:qualname`` of every tmakit object a package's ``__all__`` exports."""
     import tmakit
 
     packages = ["tmakit"] + [m.name for m in pkgutil.walk_packages(tmakit.__path__, "tmakit.")
-                             if m.ispkg]
+                             if m.ispkg] + PUBLIC_MODULES
     out: set[str] = set()
     installed = Path(tmakit.__file__).resolve().parent
     for name in packages:
