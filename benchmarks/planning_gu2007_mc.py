@@ -52,8 +52,7 @@ from tmakit.filters import FILTERS
 from tmakit.montecarlo.closed_loop import simulate_group
 from tmakit.motion.dynamics import NearlyConstantVelocity
 from tmakit.observation import MeasurementGroup
-from tmakit.planning import Belief, Planner, SensorPlan
-from tmakit.planning.horizon import Continuation
+from tmakit.planning import Belief, Continuation, Planner, SensorPlan
 from tmakit.planning.mission import MissionPlanner
 from tmakit.sensors import Actions, PlatformKinematics, PlatformState
 

@@ -31,8 +31,7 @@ import numpy as np
 
 from tmakit.bounds import PosteriorInformation
 from tmakit.motion.dynamics import NearlyConstantVelocity
-from tmakit.planning import Belief, Planner, SensorPlan
-from tmakit.planning.horizon import Continuation
+from tmakit.planning import Belief, Continuation, Planner, SensorPlan
 from tmakit.sensors import Actions, PlatformKinematics, PlatformState, platform_configuration
 
 

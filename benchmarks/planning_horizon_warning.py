@@ -12,7 +12,7 @@ bound of
 (b) receding-horizon planners minimising the bound at the end of their horizon, H = 1, 2
     (exhaustive over 5^H sequences; :class:`tmakit.planning.Planner`);
 (c) a planner that greedily minimises the final-time bound (no measurements after the
-    step: :class:`~tmakit.planning.horizon.Continuation` ``"coast"``);
+    step: :class:`~tmakit.planning.Continuation` ``"coast"``);
 (c') the same with the default continuation "straight" (measurements on a straight path to
      the end), H = 1, 2;
 (d) a path optimised over ten 60 s legs (:class:`tmakit.planning.mission.MissionPlanner`),
@@ -35,9 +35,8 @@ import numpy as np
 
 from tmakit.bounds import PosteriorInformation
 from tmakit.motion.dynamics import NearlyConstantVelocity
-from tmakit.planning import Belief, Planner, SensorPlan
+from tmakit.planning import Belief, Continuation, Planner, SensorPlan
 from tmakit.planning.candidates import step_information
-from tmakit.planning.horizon import Continuation
 from tmakit.planning.mission import MissionPlanner
 from tmakit.sensors import Actions, PlatformKinematics, PlatformState
 

@@ -47,8 +47,7 @@ from tmakit.bounds import PosteriorInformation
 from tmakit.core.units import snr_to_sigma_db
 from tmakit.motion.dynamics import NearlyConstantVelocity
 from tmakit.observation import MeasurementGroup
-from tmakit.planning import Belief, Planner, SensorPlan
-from tmakit.planning.horizon import Continuation
+from tmakit.planning import Belief, Continuation, Planner, SensorPlan
 from tmakit.planning.mission import MissionPlanner
 from tmakit.sensors import Actions, PlatformKinematics, PlatformState
 

@@ -52,9 +52,8 @@ import tmakit as tk
 from tmakit.bounds import PosteriorInformation
 from tmakit.data import MeasurementSet
 from tmakit.filters import FILTERS
-from tmakit.planning import Belief, Planner, SensorPlan
+from tmakit.planning import Belief, Continuation, Planner, SensorPlan
 from tmakit.planning.candidates import step_information
-from tmakit.planning.horizon import Continuation
 from tmakit.planning.mission import MissionPlanner
 from tmakit.sensors import Actions
 

@@ -10,8 +10,7 @@ import pytest
 from tmakit.bounds import PosteriorInformation
 from tmakit.motion.dynamics import NearlyConstantVelocity
 from tmakit.observation import MeasurementGroup
-from tmakit.planning import Belief, Planner, SensorPlan
-from tmakit.planning.horizon import Continuation
+from tmakit.planning import Belief, Continuation, Planner, SensorPlan
 from tmakit.planning.mission import MissionPlanner
 from tmakit.sensors import Actions, PlatformKinematics, PlatformState, platform_configuration
 

@@ -9,10 +9,9 @@ from .belief import Belief, cubature_points
 from .candidates import expected_information, step_information
 from .constraints import KeepOutZones, MaximumRange, MinimumRange, OperatingArea, Violation
 from .criteria import CustomCriterion, LogDet, WeightedTrace, criterion_from_name
-from .horizon import Continuation, SearchResult
 from .measurement_plan import SensorPlan
 from .mission import MissionPlan, MissionPlanner
-from .planner import Planner, Recommendation, position_bound, recommend
+from .planner import Continuation, Planner, Recommendation, SearchResult, position_bound, recommend
 
 __all__ = [
     "Belief",

@@ -21,9 +21,8 @@ from .belief import Belief
 from .candidates import GammaForm, check_gamma, step_information
 from .constraints import Constraint, Violation
 from .criteria import Criterion, WeightedTrace
-from .horizon import penalties
 from .measurement_plan import SensorPlan
-from .planner import position_bound, step_violations
+from .planner import penalties, position_bound, step_violations
 
 
 @dataclass(frozen=True, eq=False)
