@@ -71,7 +71,7 @@ monte_carlo(scn, runs=300, seed=1, progress=False)
 """,
     "monte carlo gu2007 300 runs, freed memory kept": """
 from tmakit.montecarlo import monte_carlo
-from tmakit.montecarlo.memory import keep_freed_memory
+from tmakit.montecarlo import keep_freed_memory
 keep_freed_memory()  # opt-in since issue 27 (the base commit made it in every chunk)
 scn = tk.load_scenario("gu2007")
 t = time.process_time()

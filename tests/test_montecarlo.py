@@ -296,7 +296,7 @@ def test_the_library_changes_no_process_wide_setting_unasked():
     import subprocess
     import sys
 
-    code = ("import tmakit as tk, tmakit.montecarlo.memory as m, tmakit.core.blas as b; "
+    code = ("import tmakit as tk, tmakit.montecarlo.execution as m, tmakit.core.blas as b; "
             "tk.monte_carlo('gu2007', runs=2, progress=False); print(m._done, b._SPLIT)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
@@ -308,7 +308,7 @@ def test_chunks_keep_freed_memory_where_glibc_allows(gu2007):
     gives the same table."""
     import sys
 
-    from tmakit.montecarlo.memory import keep_freed_memory
+    from tmakit.montecarlo import keep_freed_memory
 
     before = monte_carlo(gu2007, runs=3, rng=12, progress=False)
     if sys.platform.startswith("linux"):

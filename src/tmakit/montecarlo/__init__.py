@@ -9,8 +9,7 @@ imported only when used.
 from __future__ import annotations
 
 from .closed_loop import ClosedLoopStudy, LoopCase, closed_loop_study
-from .execution import COMPILED_CHUNK, LOCAL_CHUNK, LOOP_CHUNK
-from .memory import keep_freed_memory
+from .execution import COMPILED_CHUNK, LOCAL_CHUNK, LOOP_CHUNK, keep_freed_memory
 from .runs import FAILED, RUN_ERRORS, available_estimators
 from .study import MonteCarloResult, finished_runs_table, monte_carlo, ratio_interval
 

@@ -44,7 +44,7 @@ from ..planning.candidates import (
 from ..planning.measurement_plan import SensorPlan
 from ..planning.policies import Policy, for_run
 from ..sensors.platform import PlatformState
-from .execution import dask_client, execute, whole_number
+from .execution import cluster, execute, whole_number
 
 if TYPE_CHECKING:  # pragma: no cover
     from distributed import Client
@@ -637,13 +637,9 @@ def closed_loop_study(cases: Sequence[LoopCase], runs: int = 100, seed: int | No
     # chunk by chunk, every case for each (finished chunks then cover every case evenly)
     tasks = [LoopTask(c, lo, tuple(seeds[lo:lo + size]))
              for lo in range(0, runs, size) for c in cases]
-    client, opened = (None, False) if dask is None else dask_client(dask)
-    try:
+    with cluster(dask) as client:
         outputs, wall, _ = execute(tasks, client, "closed loop", runs * len(cases), progress,
                                    on_chunk, fn=run_loop_chunk)
-    finally:
-        if opened and client is not None:
-            client.close()
     records: dict[str, list[LoopRecord]] = {n: [] for n in names}
     for out in sorted(outputs, key=lambda o: (names.index(o.case), o.first_run)):
         records[out.case].extend(out.records)

@@ -1,24 +1,31 @@
-"""Where the chunks of a Monte Carlo study run.
+"""Where the chunks of a Monte Carlo study run, and the allocator settings of their processes.
 
 In this process, in a pool of worker processes on this machine, or on a Dask cluster, with a
 progress bar.  Every chunk computes the same runs wherever it runs, so the table does not depend on
 the executor or the number of workers.  Dask, distributed and tqdm are imported only when used.
+
+Raising glibc's mmap and trim thresholds to 32 MiB keeps a chunk's freed temporaries in the heap
+instead of paying page faults for them again.  It is a process-wide setting, so the library makes
+it only in processes of its own (``tma``, its worker processes, Dask workers it sends chunks to);
+a Python user calls :func:`keep_freed_memory`.
 """
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
+import ctypes.util
 import math
 import multiprocessing
 import os
 import sys
 import time
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .memory import keep_freed_memory
 from .runs import run_chunk
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -26,11 +33,13 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = [
     "COMPILED_CHUNK",
+    "HEAP_KEEP",
     "LOCAL_CHUNK",
     "LOOP_CHUNK",
-    "dask_client",
+    "cluster",
     "default_chunk",
     "execute",
+    "keep_freed_memory",
     "progress_bar",
     "run_dask",
     "run_local",
@@ -45,6 +54,40 @@ LOCAL_CHUNK = 50
 COMPILED_CHUNK = 250
 #: Runs per chunk for estimators solved run by run (the progress bar moves per chunk).
 LOOP_CHUNK = 10
+
+
+#: Bytes of freed memory kept by the allocator, and the size below which blocks come from the
+#: heap (glibc's largest mmap threshold on 64-bit systems).
+HEAP_KEEP = 32 * 1024 * 1024
+_M_TRIM_THRESHOLD = -1
+_M_MMAP_THRESHOLD = -3
+_done = False
+
+
+def keep_freed_memory() -> bool:
+    """Raise glibc's trim and mmap thresholds to :data:`HEAP_KEEP`, once per process.
+
+    Opt-in: tmakit calls it only in processes of its own.
+
+    Returns
+    -------
+    bool
+        Whether the allocator took the settings (False off Linux or without glibc).
+    """
+    global _done
+    if _done:
+        return True
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        mallopt = libc.mallopt
+    except (OSError, AttributeError):  # not glibc (musl has no mallopt)
+        return False
+    mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
+    _done = bool(mallopt(_M_MMAP_THRESHOLD, HEAP_KEEP)) & bool(
+        mallopt(_M_TRIM_THRESHOLD, HEAP_KEEP))
+    return _done
 
 
 def whole_number(value: object, name: str, minimum: int = 1) -> int:
@@ -130,19 +173,28 @@ def run_pool(tasks: Sequence[Any], workers: int, bar: Any, fn: Callable[[Any], A
     return outputs
 
 
-def dask_client(dask: Any) -> tuple[Client, bool]:
-    """Return a Dask client for ``dask`` and whether it was opened here (then close it)."""
+@contextlib.contextmanager
+def cluster(dask: str | Client | None) -> Iterator[Client | None]:
+    """Give the Dask client of ``dask`` (None: none), closing it after if it was opened here."""
+    if dask is None:
+        yield None
+        return
     try:
         from distributed import Client
     except ImportError:
         raise ImportError("dask= needs Dask's distributed scheduler: "
                           "pip install 'dask[distributed]'") from None
     if isinstance(dask, Client):
-        return dask, False
-    if isinstance(dask, str):
-        return Client(dask), True
-    raise ValueError(f"dask must be a scheduler address (such as 'tcp://host:8786') or a "
-                     f"distributed.Client, not {type(dask).__name__}")
+        yield dask
+        return
+    if not isinstance(dask, str):
+        raise ValueError(f"dask must be a scheduler address (such as 'tcp://host:8786') or a "
+                         f"distributed.Client, not {type(dask).__name__}")
+    client = Client(dask)
+    try:
+        yield client
+    finally:
+        client.close()
 
 
 def _keep_freed_memory_on(client: Client) -> None:

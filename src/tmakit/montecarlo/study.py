@@ -22,7 +22,7 @@ from ..results.bound import Bound
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..results.status import CONVERGED
 from ..scenario.model import Scenario
-from .execution import LOCAL_CHUNK, dask_client, default_chunk, execute, whole_number
+from .execution import LOCAL_CHUNK, cluster, default_chunk, execute, whole_number
 from .runs import ChunkOutput, ChunkTask, check_estimator
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -468,18 +468,13 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
 
     seq, compiled = np.random.SeedSequence(seed_used), _compiled(scenario, runs)
     entropy, children = int(seq.entropy), seq.spawn(runs)  # type: ignore[arg-type]
-    client, own_client = (None, False) if dask is None else dask_client(dask)
-    try:
+    with cluster(dask) as client:
         size = chunk or default_chunk(runs, estimator, client, compiled)
         tasks = [ChunkTask(scenario, estimator, opts, known, init, lo,
                            tuple(children[lo:lo + size]), compiled)
                  for lo in range(0, runs, size)]
         outputs, wall, executor = execute(tasks, client, f"{scenario.name} {estimator}",
                                           runs, progress, on_chunk, workers=workers)
-    finally:
-        if own_client and client is not None:
-            close: Callable[[], object] = client.close  # (distributed is not typed)
-            close()
     return _result(scenario, estimator, outputs, runs, opts, known,
                    (wall, entropy, executor, size))
 
