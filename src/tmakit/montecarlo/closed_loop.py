@@ -400,7 +400,6 @@ class ClosedLoopStudy:
         Parameters
         ----------
         case : str
-            A case of the study (:attr:`cases`).
 
         Returns
         -------
@@ -419,7 +418,6 @@ class ClosedLoopStudy:
         Parameters
         ----------
         case : str
-            A case of the study (:attr:`cases`).
 
         Returns
         -------
@@ -451,7 +449,6 @@ class ClosedLoopStudy:
         Parameters
         ----------
         case : str
-            A case of the study (:attr:`cases`).
 
         Returns
         -------
@@ -463,13 +460,11 @@ class ClosedLoopStudy:
     def criterion(self, case: str) -> Array:
         """Return the RMS over runs of the planning criterion along the flown path, each step.
 
-        The root of the mean of the runs' squared criteria (``Gamma`` over the tracker's
-        cloud: what the planner believed; not a bound, see :meth:`pcrb`).
+        What the planner believed (``Gamma`` over the tracker's cloud); not a bound (:meth:`pcrb`).
 
         Parameters
         ----------
         case : str
-            A case of the study (:attr:`cases`).
 
         Returns
         -------
@@ -484,7 +479,6 @@ class ClosedLoopStudy:
         Parameters
         ----------
         case : str
-            A case of the study (:attr:`cases`).
 
         Returns
         -------
@@ -509,7 +503,6 @@ class ClosedLoopStudy:
         Parameters
         ----------
         case : str
-            A case of the study (:attr:`cases`).
 
         Returns
         -------
@@ -523,13 +516,11 @@ class ClosedLoopStudy:
     def efficiency(self, case: str, level: float = 0.95) -> dict[str, float | None]:
         """Return the final RMSE over the posterior CRB with its Monte Carlo interval.
 
-        The interval is :func:`tmakit.bounds.pcrb_recursion.ratio_interval` (a chi-square and a
-        bootstrap over the runs; None under ``MIN_RUNS`` runs).
+        The interval: :func:`tmakit.bounds.pcrb_recursion.ratio_interval`.
 
         Parameters
         ----------
         case : str
-            A case of the study (:attr:`cases`).
         level : float, optional
             The interval's coverage.
 
@@ -555,7 +546,6 @@ class ClosedLoopStudy:
         Parameters
         ----------
         case : str
-            A case of the study (:attr:`cases`).
 
         Returns
         -------

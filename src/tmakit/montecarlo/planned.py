@@ -131,7 +131,6 @@ class PlanRun:
         Parameters
         ----------
         case : str, optional
-            :data:`CASE` or :data:`FIXED`.
 
         Returns
         -------
@@ -150,7 +149,6 @@ class PlanRun:
         Parameters
         ----------
         case : str, optional
-            :data:`CASE` or :data:`FIXED`.
 
         Returns
         -------
@@ -164,7 +162,6 @@ class PlanRun:
         Parameters
         ----------
         case : str, optional
-            :data:`CASE` or :data:`FIXED`.
 
         Returns
         -------
@@ -204,7 +201,6 @@ class PlanRun:
         Parameters
         ----------
         case : str, optional
-            :data:`CASE` or :data:`FIXED`.
 
         Returns
         -------

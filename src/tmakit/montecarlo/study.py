@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..bounds.fim import crlb
 from ..core.keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
+from ..results.answers import finite
 from ..results.bound import Bound
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..results.status import CONVERGED
@@ -62,10 +63,6 @@ def ratio_interval(ratio: float, n: int, level: float = 0.95) -> tuple[float, fl
     hi_q = chi2.ppf(0.5 + level / 2.0, n)
     lo_q = chi2.ppf(0.5 - level / 2.0, n)
     return float(ratio * np.sqrt(n / hi_q)), float(ratio * np.sqrt(n / lo_q))
-
-
-def _num(x: float) -> float | None:
-    return float(x) if x is not None and np.isfinite(x) else None
 
 
 @dataclass
@@ -258,7 +255,7 @@ class MonteCarloResult:
         dict
             JSON-ready; SI values, ``wall_time_s`` in s, non-finite numbers as None.
         """
-        summary = [{k: (_num(v) if isinstance(v, float) else v) for k, v in row.items()}
+        summary = [{k: (finite(v) if isinstance(v, float) else v) for k, v in row.items()}
                    for row in self.summary_table()]
         out: dict[str, Any] = {
             "scenario": self.scenario,
@@ -268,18 +265,18 @@ class MonteCarloResult:
             "nuisance": "known" if self.known_nuisance else "unknown",
             "parameters": list(self.parameters),
             "truth": [float(v) for v in self.truth],
-            "crlb": [_num(v) for v in self.crlb],
+            "crlb": [finite(v) for v in self.crlb],
             "summary": summary,
-            "convergence_rate": _num(self.convergence_rate),
+            "convergence_rate": finite(self.convergence_rate),
             "status_counts": self.status_counts,
             "wall_time_s": float(self.wall_time),
-            "runs_per_second": _num(self.runs_per_second),
+            "runs_per_second": finite(self.runs_per_second),
             "executor": self.executor,
             "chunk": self.chunk,
             "failures": {str(k): v for k, v in sorted(self.failures.items())},
         }
         if runs:
-            out["table"] = [{k: (_num(v) if isinstance(v, float) else v)
+            out["table"] = [{k: (finite(v) if isinstance(v, float) else v)
                              for k, v in rec.items()}
                             for rec in json.loads(self.table.to_json(orient="records"))]
         return out

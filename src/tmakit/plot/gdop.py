@@ -79,11 +79,8 @@ def cep_map(scenario: Scenario, points: int = 100, half_width: float | None = No
 
 def plot_cep_map(result: CepMap, path: str | Path, title: str | None = None) -> Path:
     """Draw CEP50 and CEP90 as filled contours (log scale) with the sensors."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
+    from matplotlib.figure import Figure
 
     frame = MapFrame(result.rows)
     ee, nn = np.meshgrid(result.east, result.north)
@@ -92,7 +89,8 @@ def plot_cep_map(result: CepMap, path: str | Path, title: str | None = None) -> 
                              result.cep90[np.isfinite(result.cep90)]])
     low, high = (float(finite.min()), float(finite.max())) if finite.size else (1.0, 10.0)
     levels = np.logspace(np.log10(low), np.log10(max(high, low * 1.01)), 15)
-    fig, axes = plt.subplots(1, 2, figsize=(12, 5.4))
+    fig = Figure(figsize=(12, 5.4))
+    axes = fig.subplots(1, 2)
     pos = np.unique(np.concatenate([result.rows.sensor_state[:, :2],
                                     result.rows.ref_sensor_state[:, :2]]), axis=0)
     sx, sy = frame.xy(pos[:, 0], pos[:, 1])
@@ -111,5 +109,4 @@ def plot_cep_map(result: CepMap, path: str | Path, title: str | None = None) -> 
         fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)
     return Path(path)

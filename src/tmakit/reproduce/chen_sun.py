@@ -325,13 +325,10 @@ def plot(rep: ChenSunReproduction, path: str | Path) -> Path:
     """Draw Fig. 2 of Chen & Sun: RMS error over time for the three paths."""
     if not rep.series:
         raise ValueError("plot() needs chen_sun.run() with runs > 0")
-    import matplotlib
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    path = Path(path)
-    fig, axes = plt.subplots(2, 4, figsize=(15, 7.5), sharex=True, layout="constrained")
+    fig = Figure(figsize=(15, 7.5), layout="constrained")
+    axes = fig.subplots(2, 4, sharex=True)
     colours = {1: "tab:blue", 2: "tab:red", 3: "tab:green"}
     for row, (ekf_key, mg_key, title) in enumerate((
             ("ekf", "mgekf", "as in the paper"),
@@ -354,5 +351,4 @@ def plot(rep: ChenSunReproduction, path: str | Path) -> Path:
     fig.suptitle(f"Chen & Sun Fig. 2: tracking errors, lags {list(rep.lags)}; z is ±|z| "
                  "(mirror ambiguity), R the slant range from the receiver", fontsize=11)
     fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return Path(path)

@@ -186,13 +186,11 @@ def _level(value: float | None) -> str:
 
 def plot_sweep(result: Sweep, title: str, path: str | Path) -> None:
     """Draw MSE against noise (log-log), both estimators beside the CRLB, one panel a block."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     blocks = list(result.crlb)
-    fig, axes = plt.subplots(1, len(blocks), figsize=(5.5 * len(blocks), 4.2), squeeze=False)
+    fig = Figure(figsize=(5.5 * len(blocks), 4.2))
+    axes = fig.subplots(1, len(blocks), squeeze=False)
     db = 20 * np.log10(result.sigma_m)
     for ax, block in zip(axes[0], blocks, strict=True):
         ax.semilogy(db, result.crlb[block], "k-", label="CRLB")
@@ -205,4 +203,3 @@ def plot_sweep(result: Sweep, title: str, path: str | Path) -> None:
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)

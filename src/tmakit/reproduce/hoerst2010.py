@@ -199,10 +199,7 @@ def _ellipse_counts(s: CrbSequence) -> tuple[int, int, int]:
 
 def plot(rep: Hoerst2010Reproduction, path: str | Path) -> Path:
     """Draw Fig. 2 of Hörst & Oispuu (2010)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
     from matplotlib.patches import Ellipse
 
     scn = rep.scenario
@@ -215,8 +212,8 @@ def plot(rep: Hoerst2010Reproduction, path: str | Path) -> Path:
     cot = np.array(_change_overs(scn))
     turns = scn.target_states(cot)[:, :2] / 1e3 if cot.size else np.zeros((0, 2))
 
-    fig, axes = plt.subplots(1, 2, figsize=(13, 6.2), sharex=True, sharey=True,
-                             layout="constrained")
+    fig = Figure(figsize=(13, 6.2), layout="constrained")
+    axes = fig.subplots(1, 2, sharex=True, sharey=True)
     for ax, key in zip(axes, ("azimuth", "azimuth+rate"), strict=True):
         s = rep.sequences[key]
         ax.plot(observer[:, 0], observer[:, 1], "-", color="green", lw=1.2, label="observer")
@@ -249,7 +246,5 @@ def plot(rep: Hoerst2010Reproduction, path: str | Path) -> Path:
     fig.suptitle("Hörst & Oispuu 2010, Fig. 2: position CRB every "
                  f"{s.ref_times[1] - s.ref_times[0]:g} s from the data so far, accelerations "
                  "and change-over times unknown", fontsize=10)
-    path = Path(path)
     fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return Path(path)

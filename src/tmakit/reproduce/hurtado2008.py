@@ -258,15 +258,13 @@ def plot(rep: Hurtado2008Reproduction, path: str | Path) -> Path:
     ----------
     Hurtado & Nehorai (2008), §5, Figs. 1-3.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     study = rep.study
     if study is None:
         raise ValueError("the reproduction holds no runs to draw")
-    fig, (ax_map, ax_err, ax_rng) = plt.subplots(1, 3, figsize=(17, 5.5))
+    fig = Figure(figsize=(17, 5.5))
+    ax_map, ax_err, ax_rng = fig.subplots(1, 3)
     colours = dict(zip(study.cases, ("tab:gray", "tab:blue", "tab:red", "tab:orange"),
                        strict=False))
     truth = study.stack("fixed", "truth")[0]
@@ -295,7 +293,5 @@ def plot(rep: Hurtado2008Reproduction, path: str | Path) -> Path:
     ax_rng.legend(fontsize=7)
     fig.suptitle("Hurtado & Nehorai (2008), section 5")
     fig.tight_layout()
-    path = Path(path)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return Path(path)
