@@ -265,14 +265,14 @@ def test_run_summaries_give_the_status_of_a_full_result(tmp_path):
     bests += [Best(np.full(6, np.nan), bests[0].nuisance, np.inf, 3, False, 2),
               ValueError("no start")]
     got = summarise_runs(problem, bests, None)
-    assert got.status == ["unobservable", "unobservable", "diverged", None]
+    assert got.status == ["unobservable", "unobservable", "diverged", "failed"]
     assert got.iterations.tolist() == [one.iterations] * 2 + [3, 0]
     assert got.starts.tolist() == [one.starts] * 2 + [2, 0]
     np.testing.assert_allclose(got.chi2[:2], one.chi2, rtol=1e-9)
     assert np.isinf(got.chi2[2]) and np.isnan(got.chi2[3])
     seen = [k for k, n in enumerate(motion.param_names) if n != "z"]  # z: not observed
     np.testing.assert_allclose(got.estimates[:2, seen], [one.estimate[seen]] * 2, rtol=1e-6)
-    assert np.isnan(got.estimates[2:]).all() and list(got.failures) == [3]
+    assert np.isnan(got.estimates[2:]).all() and got.failures == {3: "ValueError: no start"}
 
 
 # -- worker processes --------------------------------------------------------------------------

@@ -28,9 +28,8 @@ from ..results.observability import full_rank
 from ..results.status import CONVERGED, DIVERGED, NOT_CONVERGED, UNOBSERVABLE
 from ..scenario.model import Scenario
 
-__all__ = ["FAILED", "RUN_ERRORS", "ChunkOutput", "ChunkTask", "RunSummaries",
-           "available_estimators", "check_estimator", "run_chunk", "solve_runs",
-           "summarise_runs"]
+__all__ = ["FAILED", "RUN_ERRORS", "ChunkOutput", "ChunkTask", "available_estimators",
+           "check_estimator", "run_chunk", "solve_runs", "summarise_runs"]
 
 #: Status of a run whose estimator raised an error (the message is in ``result.failures``).
 FAILED = "failed"
@@ -103,6 +102,10 @@ class ChunkOutput:
         return cls(first_run, [FAILED] * m, np.zeros(m, dtype=np.int64), np.full(m, np.nan),
                    np.zeros(m, dtype=np.int64), np.full((m, p), np.nan))
 
+    def fail(self, i: int, error: Exception) -> None:
+        """Record the error of run ``i`` of the chunk (its status stays :data:`FAILED`)."""
+        self.failures[self.first_run + i] = f"{type(error).__name__}: {error}"
+
     def record(self, i: int, res: Any) -> None:
         """Store estimate result ``res`` as run ``i`` of the chunk."""
         self.status[i] = str(res.status)
@@ -134,7 +137,7 @@ def _per_run(task: ChunkTask, meas: Sequence[MeasurementSet]) -> ChunkOutput:
             res = estimate_with(task.estimator, m, scn.motion, init=task.init,
                                 options=task.options, **known)
         except RUN_ERRORS as e:
-            out.failures[task.first_run + i] = f"{type(e).__name__}: {e}"
+            out.fail(i, e)
             continue
         out.record(i, res)
     return out
@@ -143,34 +146,9 @@ def _per_run(task: ChunkTask, meas: Sequence[MeasurementSet]) -> ChunkOutput:
 def _ml_batched(task: ChunkTask, meas: MeasurementSet, values: NDArray[np.float64]
                 ) -> ChunkOutput:
     """:func:`tmakit.batch.ml.estimate` for every run of the chunk, the solves batched."""
-    motion = task.scenario.motion
     ml = MaximumLikelihood(task.init, task.options, task.known_nuisance)
-    problem, bests = solve_runs(ml, meas, values, motion)
-    got = summarise_runs(problem, bests, task.known_nuisance)
-    out = ChunkOutput.empty(task.first_run, values.shape[0], motion.n_params)
-    for i, e in got.failures.items():
-        out.failures[task.first_run + i] = f"{type(e).__name__}: {e}"
-    out.status = [FAILED if st is None else st for st in got.status]
-    out.iterations, out.chi2, out.starts, out.estimates = (got.iterations, got.chi2,
-                                                           got.starts, got.estimates)
-    return out
-
-
-@dataclass
-class RunSummaries:
-    """What a study keeps of each run, in run order."""
-
-    #: ``converged``, ``did not converge``, ``unobservable`` or ``diverged``; ``None`` for a run
-    #: whose fit raised (its message in ``failures``)
-    status: list[str | None]
-    #: iterations, starts: Iterations of the solve that found the estimate; starting points solved
-    iterations: NDArray[np.int64]
-    chi2: NDArray[np.float64]  # Twice the final cost (inf for a diverged run, NaN for a failed one)
-    starts: NDArray[np.int64]
-    #: The motion parameters (SI; NaN for a diverged or failed run); shape (runs, p)
-    estimates: NDArray[np.float64]
-    #: Index of the run (in the batch) to its error
-    failures: dict[int, Exception] = field(default_factory=dict)
+    problem, bests = solve_runs(ml, meas, values, task.scenario.motion)
+    return summarise_runs(problem, bests, task.known_nuisance, task.first_run)
 
 
 def solve_runs(ml: MaximumLikelihood, meas: MeasurementSet, values: NDArray[np.float64],
@@ -207,16 +185,14 @@ def _without_guess(ml: MaximumLikelihood, problem: VarProProblem,
 
 
 def summarise_runs(problem: VarProProblem, bests: list[Best | Exception],
-                   known: KnownNuisance | None) -> RunSummaries:
+                   known: KnownNuisance | None, first_run: int = 0) -> ChunkOutput:
     """Summarise each run's fit as :func:`~tmakit.results.estimate.assemble_result` would."""
     obs = problem.obs
-    m, p = len(bests), obs.motion.n_params
-    out = RunSummaries([None] * m, np.zeros(m, np.int64), np.full(m, np.nan),
-                       np.zeros(m, np.int64), np.full((m, p), np.nan))
+    out = ChunkOutput.empty(first_run, len(bests), obs.motion.n_params)
     fitted: list[tuple[int, Best]] = []
     for i, best in enumerate(bests):
         if isinstance(best, Exception):
-            out.failures[i] = best
+            out.fail(i, best)
             continue
         out.iterations[i], out.starts[i] = best.iterations, best.starts
         if np.all(np.isfinite(best.theta)) and np.isfinite(best.cost):
@@ -230,7 +206,7 @@ def summarise_runs(problem: VarProProblem, bests: list[Best | Exception],
 
 
 def _full_rank_block(problem: VarProProblem, fits: list[tuple[int, Best]],
-                     known: KnownNuisance | None, out: RunSummaries) -> None:
+                     known: KnownNuisance | None, out: ChunkOutput) -> None:
     """Status, chi2 and estimate of finite fits (run, fit), their information in a batch."""
     theta = np.stack([b.theta for _, b in fits])
     nu = np.stack([b.nuisance for _, b in fits])
@@ -254,14 +230,14 @@ def _full_rank_block(problem: VarProProblem, fits: list[tuple[int, Best]],
 
 
 def _one_by_one(problem: VarProProblem, best: Best, known: KnownNuisance | None, i: int,
-                out: RunSummaries) -> None:
+                out: ChunkOutput) -> None:
     """Summarise one run through the full result (a fit whose information is not finite)."""
     try:
         res = assemble_result(problem.obs, problem.noise, best.theta, best.nuisance,
                               best.cost, best.iterations, best.converged, "ml", best.starts,
                               known, best.note)
     except FIT_ERRORS as e:
-        out.failures[i] = e
+        out.fail(i, e)
         out.iterations[i] = out.starts[i] = 0
         return
     out.status[i] = str(res.status)
