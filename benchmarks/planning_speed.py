@@ -34,7 +34,7 @@ Stone Soup (``pip install stonesoup``, the ``bench`` extra):
   a noiseless detection, an EKF update, the drop in the Frobenius norm of the covariance).
 
 A one-step decision over a planar plan is one compiled call
-(:mod:`tmakit.planning.decision`: the candidates' kinematics with every limit
+(:func:`tmakit.planning.planner.decide`: the candidates' kinematics with every limit
 checked, ``J`` predicted, ``Gamma``, ``J^{-1}``, the criterion fully computed); the rows
 ``mean-general`` and ``cloud-general`` are the same decisions on the planner's general path (the
 compiled decision set aside), to show what it gains.

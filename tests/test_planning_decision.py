@@ -16,8 +16,8 @@ from tmakit.planning import (
     Planner,
     SensorPlan,
     WeightedTrace,
-    decision,
 )
+from tmakit.planning import planner as decision
 from tmakit.sensors import Actions, PlatformKinematics, PlatformState, platform_configuration
 
 TARGET = np.array([-2000.0, 15000.0, 25.0, 0.0])
