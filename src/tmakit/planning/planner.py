@@ -187,7 +187,6 @@ class Planner:
                 f"decision, more than {MAX_SEQUENCES:,} (memory and time grow with them): "
                 "lower the horizon, offer fewer actions or search with Planner(beam=N)")
         object.__setattr__(self, "constraints", tuple(self.constraints))
-        compiled.kernels()   # load numba's cached kernels now, not in the first decision
 
     def expand(self, platform: PlatformState, information: Array, belief: Belief,
                depth: int, gamma: GammaForm) -> tuple[Step, Array, list[Violation]]:
@@ -760,7 +759,6 @@ def decide(planner: Planner, cache: dict[str, Any], platform: PlatformState,
     ----------
     Hurtado & Nehorai (2008), eqs. 10-13.
     """
-    kernel = compiled.kernels()["decide_planar"]
     if "setup" not in cache:
         cache["setup"] = _setup(planner)
     setup = cache["setup"]
@@ -776,7 +774,7 @@ def decide(planner: Planner, cache: dict[str, Any], platform: PlatformState,
     states = belief.states
     at_mean = planner.gamma == "mean" or states.shape[0] == 1
     c_array = np.ascontiguousarray   # one compiled layout: no new compilation for a view
-    best = kernel(
+    best = compiled.decide_planar(
         c_array(platform.position), float(platform.heading), float(platform.speed),
         float(platform.climb_rate), packed, own_climb, limits, interval,
         c_array(post.information), f_inv, g, f, c_array(states), c_array(belief.weights),
