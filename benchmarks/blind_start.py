@@ -2,10 +2,10 @@
 
 Requirement: at least 99.5 % of 1000 random observable geometries (target within 20 km,
 speed ≤ 40 m/s, one manoeuvring sensor, random mixes of bearing, frequency and power; see
-:mod:`tmakit.montecarlo.geometries`) reach the global optimum without an initial guess.
+``benchmarks/geometries.py``) reach the global optimum without an initial guess.
 
 For every geometry ``i`` the generator ``numpy.random.default_rng([seed, i])`` draws an
-observable geometry (:func:`tmakit.montecarlo.geometries.observable_geometry`) and then its noise
+observable geometry (:func:`geometries.observable_geometry`) and then its noise
 (``Scenario.simulate`` with the same generator), so any geometry can be rerun alone with
 ``--index i``.  The data are fitted twice: blind (``estimate(meas, motion)``, starting points
 from the likelihood grid) and started at the truth (``init=truth``).  The blind fit *reaches
@@ -42,11 +42,12 @@ try:
 except ImportError:  # run from a checkout without installing
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "src"))
 
+from geometries import observable_geometry, position_std
+
 from tmakit.batch import GridSettings, estimate
 from tmakit.batch.init import best_starts
 from tmakit.batch.solver import VarProProblem
 from tmakit.data import MeasurementSet
-from tmakit.montecarlo.geometries import observable_geometry, position_std
 from tmakit.observation import ObservationModel
 from tmakit.scenario import Scenario
 

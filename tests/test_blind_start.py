@@ -1,5 +1,5 @@
 """Blind start: random observable geometries reach the global optimum with no initial guess,
-and :mod:`tmakit.montecarlo.geometries` draws what it says it draws.
+and ``benchmarks/geometries.py`` draws what it says it draws.
 
 The full study (1000 geometries, success rate with its confidence interval) is
 ``benchmarks/blind_start.py``; this is its fast, seeded subset.
@@ -11,10 +11,7 @@ from collections import Counter
 
 import numpy as np
 import pytest
-
-from tmakit.batch import estimate
-from tmakit.bounds import crlb
-from tmakit.montecarlo.geometries import (
+from geometries import (
     BEARING_SIGMA_DEG,
     FREQUENCY_SIGMA_HZ,
     SNR_DB,
@@ -23,6 +20,9 @@ from tmakit.montecarlo.geometries import (
     position_std,
     random_geometry,
 )
+
+from tmakit.batch import estimate
+from tmakit.bounds import crlb
 
 RELATIVE_TOLERANCE = 1e-6
 """Numerical floor of the cost: GHz-carrier frequencies in doubles reproduce it to ~1e-8."""
