@@ -1,7 +1,7 @@
 """Tracking from the first bearing: the two scenarios of Ristic et al. (2004, ch. 6).
 
 The scenarios as Leong, Arulampalam, Lamahewa & Abhayapala (2014) coded them in their
-published MATLAB script (:mod:`tmakit.reproduce.leong2014` gives every number and how run i
+published MATLAB script (``leong2014.py`` gives every number and how run i
 of a scenario draws its target path and bearings: ``numpy.random.default_rng([seed, s, i])``).
 
 The filters start **only from the priors** (never from the truth): range interval of Leong
@@ -46,12 +46,12 @@ import time
 import warnings
 
 import numpy as np
+from leong2014 import Q_DENSITY, SCENARIOS, simulate
 
 import tmakit as tk
 from tmakit.bounds.pcrb import deterministic_pcrb
 from tmakit.data import MeasurementSet
 from tmakit.filters import first_bearing, smooth
-from tmakit.reproduce.leong2014 import Q_DENSITY, SCENARIOS, simulate
 from tmakit.tracking import BearingInitiator
 
 CHI2_95_2DOF = 5.991464547107979

@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from leong2014 import Q_DENSITY, SCENARIOS, simulate
 from typer.testing import CliRunner
 
 import tmakit as tk
@@ -27,7 +28,6 @@ from tmakit.filters import (
     transition_matrix,
 )
 from tmakit.motion.dynamics import NearlyConstantVelocity
-from tmakit.reproduce.leong2014 import Q_DENSITY, SCENARIOS, simulate
 from tmakit.tracking import BearingInitiator, TrackingError
 
 runner = CliRunner()

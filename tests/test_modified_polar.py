@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from leong2014 import Q_DENSITY, SCENARIOS, simulate
 from typer.testing import CliRunner
 
 import tmakit as tk
@@ -11,7 +12,6 @@ from tmakit.bounds.pcrb import deterministic_pcrb
 from tmakit.cli import app
 from tmakit.filters import FILTERS, BearingPrior, ModifiedPolarEKF, first_bearing
 from tmakit.filters.modified_polar import from_modified_polar, to_modified_polar
-from tmakit.reproduce.leong2014 import Q_DENSITY, SCENARIOS, simulate
 from tmakit.tracking import BearingInitiator, TrackingError
 
 MODERATE = SCENARIOS["moderate"]

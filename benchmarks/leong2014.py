@@ -1,8 +1,7 @@
 """The two bearings-only scenarios of Ristic et al. (2004, ch. 6), as Leong et al. coded them.
 
 ``moderate`` and ``high`` (highly nonlinear) from their published MATLAB script, in metres,
-with their range intervals as range priors.  Used by ``benchmarks/first_bearing.py`` and the
-tests.
+with their range intervals as range priors.  Used by ``first_bearing.py`` and the tests.
 
 References
 ----------
@@ -17,9 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.arrays import Array
-from ..data import MeasurementSet
-from ..filters import BearingPrior
+from tmakit.core.arrays import Array
+from tmakit.data import MeasurementSet
+from tmakit.filters import BearingPrior
 
 __all__ = ["KNOT", "Q_DENSITY", "SCENARIOS", "Scenario", "simulate"]
 
