@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tmakit.core.frames import math_angle_to_bearing
+from tmakit.core.frames import wrap_angle
 from tmakit.core.geodesy import enu_to_geodetic, geodetic_to_enu
 from tmakit.sensors import FixedSensor, Leg, LegsTrack, RecordedTrack, WaypointTrack
 
@@ -245,7 +245,7 @@ def test_legs_invalid_raise(kwargs, match):
 
 def test_paper_000_sensor_path_distances():
     """The sensor path of Gu et al. (2007) against its straight-line target."""
-    heading = float(math_angle_to_bearing(math.radians(-1.21008)))
+    heading = float(wrap_angle(math.pi / 2 - math.radians(-1.21008)))  # from East, ccw
     assert math.degrees(heading) == pytest.approx(90.0 + 1.21008, abs=1e-12)
     track = LegsTrack((801.385, 5002.294), heading, 50.0, [
         Leg(44.2152, math.radians(0.508926)),

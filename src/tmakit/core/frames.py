@@ -2,9 +2,9 @@
 
 Local ENU frame in metres (2-D: z = 0); bearings and courses clockwise from North,
 ``atan2(d_east, d_north)`` (Hörst & Oispuu (2010), eq. 6); papers' counter-clockwise-from-East
-angles (Gu et al. (2007), Chen & Sun) are converted in their scenarios by
-:func:`math_angle_to_bearing`.  Relative state = target minus sensor; angle residuals wrap to
-(-pi, pi].
+angles (Gu et al. (2007), Chen & Sun) are converted once, where a scenario file is read
+(``angle_convention = "east_ccw"``).  Relative state = target minus sensor; angle residuals wrap
+to (-pi, pi].
 """
 
 from __future__ import annotations
@@ -54,8 +54,3 @@ def wrap_angle_own(e: NDArray[np.float64], in_place: bool = False) -> NDArray[np
     if low <= -np.pi:
         np.add(out, TWO_PI, out=out, where=out <= -np.pi)
     return out
-
-
-def math_angle_to_bearing(angle: ArrayLike) -> NDArray[np.float64]:
-    """Convert an angle counter-clockwise from East (x-axis) to a bearing clockwise from North."""
-    return wrap_angle(np.pi / 2.0 - np.asarray(angle, dtype=float))
