@@ -732,7 +732,7 @@ def _setup(planner: Planner) -> tuple[Any, ...] | None:
         coef = full
     criterion = planner.criterion
     trace = type(criterion) is WeightedTrace
-    weighting = criterion.matrix(4) if trace else np.zeros((4, 4))
+    weighting = cast(WeightedTrace, criterion).matrix(4) if trace else np.zeros((4, 4))
     packed, own_climb = pack_actions(planner.actions)
     return (packed, own_climb, pack_limits(kin), float(planner.interval), coef, dgf,
             position_only, np.ascontiguousarray(weighting), trace)
@@ -774,14 +774,15 @@ def decide(planner: Planner, cache: dict[str, Any], platform: PlatformState,
     states = belief.states
     at_mean = planner.gamma == "mean" or states.shape[0] == 1
     c_array = np.ascontiguousarray   # one compiled layout: no new compilation for a view
-    best = compiled.decide_planar(
+    found: int = compiled.decide_planar(
         c_array(platform.position), float(platform.heading), float(platform.speed),
         float(platform.climb_rate), packed, own_climb, limits, interval,
         c_array(post.information), f_inv, g, f, c_array(states), c_array(belief.weights),
         at_mean, coef, dgf, position_only, weighting, rows, flags, info, cov, cost, bound)
-    if best < 0:
+    if found < 0:
         return None
+    best = found if trace else None
     if not trace:
-        cost, best = evaluate(planner.criterion, info, cov), None
+        cost = evaluate(planner.criterion, info, cov)
     steps = LazyStep.of(rows, flags, (n_act,), interval, platform.time)
     return Decision(steps, info, cov, cost, bound, best)
