@@ -306,7 +306,7 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
     except OSError as e:
         raise fail(f"{e.filename or paths[0]}: cannot be read ({e.strerror or e})") from None
     except (MeasurementFileError, ValueError) as e:
-        from ..io.positions import ORIGIN_HINT
+        from ..io.checker import ORIGIN_HINT
 
         raise fail(str(e).replace(ORIGIN_HINT, "--origin LAT,LON,ALT")) from None
     for note in reader_notes(meas.metadata, pop=True):

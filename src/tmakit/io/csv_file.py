@@ -27,11 +27,22 @@ from ..data import REF_STATE_COLUMNS, MeasurementSet
 from ..measurements import KINDS
 from ..measurements.codes import KIND_CODES, KIND_NAMES
 from ..rules import GEO_RANGES, geo_within
-from .checker import check_columns, check_table
-from .contract import COLUMN_ORDER, FORMAT_LINE, NUMERIC_COLUMNS, Problems, RawTable, file_columns
+from .checker import (
+    COLUMN_ORDER,
+    FORMAT_LINE,
+    NUMERIC_COLUMNS,
+    QUERY_ROWS,
+    Problems,
+    RawTable,
+    SensorRecord,
+    check_columns,
+    check_table,
+    file_columns,
+    geodetic_to_enu_in_place,
+    resolve_origin,
+)
 from .errors import MeasurementFileError
 from .formats import Format, register_format
-from .positions import QUERY_ROWS, SensorRecord, geodetic_to_enu_in_place, resolve_origin
 from .tables import write_table
 
 __all__ = ["BLOCK_BYTES", "CSV", "SET_BYTES_PER_ROW", "csv_metadata_line", "load_csv",
@@ -514,7 +525,7 @@ def _need(kind: NDArray[np.int8], ref: NDArray[np.float64], lo: int) -> NDArray[
 
 def _origin(origin: tuple[float, float, float] | None, metadata: dict[str, str]
             ) -> tuple[tuple[float, float, float] | None, dict[str, str]]:
-    """Pick the ENU origin as the full reader does (:func:`.positions.resolve_origin`)."""
+    """Pick the ENU origin as the full reader does (:func:`.checker.resolve_origin`)."""
     problems = Problems(RawTable(None, metadata, None))
     found, origin_metadata = resolve_origin(origin, metadata, problems)
     return (None, {}) if problems.file else (found, origin_metadata)
