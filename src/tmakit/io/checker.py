@@ -341,11 +341,7 @@ def _geodetic_positions(num: Numbers, origin: tuple[float, float, float],
 
 def geodetic_to_enu_in_place(state: NDArray[np.float64], origin: tuple[float, float, float],
                              dim3: bool) -> str:
-    """Convert latitude, longitude, altitude in ``state[:, :3]`` to ENU, block by block.
-
-    Sensors on a surface (:func:`.logs.surface_dim`, NaN rows aside) are flattened to the origin's
-    altitude, and the rule's text returned ("" in 3-D).
-    """
+    """Convert ``state[:, :3]`` from lat/lon/alt to ENU in place; return the surface rule's text."""
     from ..core.geodesy import geodetic_to_enu
     from .logs import surface_dim
 
@@ -370,11 +366,7 @@ def ref_sensor_state(num: Numbers, state: NDArray[np.float64], sensor: NDArray[n
                      is_rd: NDArray[np.bool_], ref_given: NDArray[np.bool_], layout: Layout,
                      problems: Problems, ref_name: NDArray[np.object_] | None = None,
                      named: NDArray[np.bool_] | None = None) -> NDArray[np.float64]:
-    """Sensor state at time_ref ``(n, 6)`` of the range-difference rows (NaN on others).
-
-    ``named`` rows (tdoa/fdoa naming their ``ref_name`` without its state) take the named
-    sensor's state at their time from that sensor's rows, as range differences take their own.
-    """
+    """Give the state at time_ref ``(n, 6)`` of range differences and ``named`` tdoa/fdoa rows."""
     n = state.shape[0]
     ref = np.full((n, 6), np.nan)
     for i, c in enumerate(REF_STATE_COLUMNS):
@@ -409,13 +401,9 @@ def ref_sensor_state(num: Numbers, state: NDArray[np.float64], sensor: NDArray[n
 
 def fdoa_carriers(num: Numbers, kind: NDArray[np.object_], metadata: Mapping[str, str],
                   problems: Problems) -> dict[str, str]:
-    """Bring fdoa rows with their own ``carrier`` to the file's one carrier (metadata).
-
-    A row measured at carrier ``f`` is the row that carrier ``F`` would give times ``F / f``
-    (value and sigma: the FDOA is ``-(f / c)`` times the range-rate difference), so rows of
-    several carriers (a frequency-hopping emitter) become one set at the file's carrier
-    (its ``fdoa_carrier`` metadata, else the first row's).  Returns the metadata to add.
-    """
+    """Scale fdoa rows of their own ``carrier`` to the file's one; return the metadata to add."""
+    # FDOA is -(f / c) times the range-rate difference: a row at carrier f is the row carrier F
+    # would give times F / f (the file's fdoa_carrier, else the first row's)
     if "carrier" not in num:
         return {}
     own = num["carrier"]
@@ -476,19 +464,7 @@ def _non_decreasing(t: NDArray[np.float64]) -> bool:
 
 
 class SensorRecord:
-    """A sensor's usable rows in time order, to look its state up at given times.
-
-    Parameters
-    ----------
-    t : numpy.ndarray
-        Every row's time (s).
-    state : numpy.ndarray, shape (n, 6)
-        Every row's sensor state (ENU m, m/s).
-    mine : numpy.ndarray of int or None
-        The sensor's usable rows in file order; None for every row.
-    has_velocity : bool
-        The file gives sensor velocities (else interpolated velocities are 0).
-    """
+    """A sensor's usable rows ``mine`` (None: all) in time order, to look its state up."""
 
     def __init__(self, t: NDArray[np.float64], state: NDArray[np.float64],
                  mine: NDArray[np.intp] | None, has_velocity: bool) -> None:

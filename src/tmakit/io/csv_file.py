@@ -1,10 +1,7 @@
 """The CSV measurement file: ``# key: value`` metadata lines, a header, one row per value.
 
-pyarrow's CSV reader parses it either streamed (:func:`stream_csv`: block by block into the set's
-arrays, about 93 bytes a row, :data:`SET_BYTES_PER_ROW`) or, when the stream does not take the
-file (any bad cell, a missing column, ...), as a table of cells for the checker
-(:func:`load_csv`) that names every problem; both give the same set bit for bit.  Writing uses
-shortest round-trip floats, so files round-trip exactly.
+A valid file is streamed into the set's arrays (:func:`stream_csv`); any other is read as a table
+of cells for the checker (:func:`load_csv`), which names every problem: the same set bit for bit.
 """
 
 from __future__ import annotations

@@ -1,10 +1,8 @@
 """Debrief replay files (``.rep``, ``.dsf``) as measurement sets.
 
-The lines are parsed as Debrief's documentation of the replay format writes them: track fixes,
-``;SENSOR:``, ``;SENSOR2:``, ``;SENSOR3:``, ``;TMA_POS:`` and ``;TMA_RB:`` lines (other ``;`` lines
-are skipped; a position's ``60`` minutes or seconds is read as a carry, as Debrief does).  Own
-ship, contact, placeholder ranges, sigmas and frame are read as ``docs/your-own-data.md``
-tabulates; what was read otherwise than written is said in the set's ``reader_notes``.
+Track fixes, ``;SENSOR:``, ``;SENSOR2:``, ``;SENSOR3:``, ``;TMA_POS:`` and ``;TMA_RB:`` lines as
+Debrief's documentation writes them; other ``;`` lines are skipped.  What was read otherwise than
+written is said in the set's ``reader_notes`` (``docs/your-own-data.md``).
 """
 
 from __future__ import annotations

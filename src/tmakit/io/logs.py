@@ -1,11 +1,6 @@
 """What the readers of real logs share: clock times, the local frame, the surface rule, the rules.
 
-Clock times, the ENU origin and altitude reference, the surface rule and velocities from
-positions follow ``docs/your-own-data.md``; a log's values obey the rules of a measurement file,
-each problem named by its place in the log.  A time typed by a user (``--from``, ``--to``,
-``--at``, a reader's window) is seconds since the set's ``time_origin``, an ISO-8601 instant (UTC
-unless a zone is named), or ``HH:MM[:SS[.S]]`` UTC on the day of the data (only where the data
-lie within one UTC day).
+As ``docs/your-own-data.md`` says; each problem is named by its place in the log.
 """
 
 from __future__ import annotations

@@ -1,8 +1,6 @@
-"""A batch solution written out: Debrief replay lines, GeoJSON or KML (``tma estimate --export``).
+"""A batch solution as Debrief lines, GeoJSON or KML (``tma estimate --export``).
 
-The solution is written as points along the estimated track, every ``every`` seconds over the data's
-span (and at its last time), each with its position, course, speed and position ellipse
-(:func:`tmakit.results.answers.estimate_answer`), so that the file shows what tmakit printed.
+Points every ``every`` seconds over the data's span, each with the answers tmakit prints.
 """
 
 from __future__ import annotations

@@ -1,8 +1,4 @@
-"""Writing files: one safe way, the one table writer, and the study tables written with it.
-
-A file is written to a temporary file in the same folder and moved into place, so a failure never
-leaves a partial file nor damages an existing one; tables are CSV or Parquet.
-"""
+"""Writing files: atomically (a temporary file moved into place), and tables as CSV or Parquet."""
 
 from __future__ import annotations
 
@@ -39,9 +35,7 @@ TEMP_PATTERN = re.compile(r"^\..+\.[0-9a-f]{12}\.tmp(\.[A-Za-z0-9]{1,8})?$")
 
 
 def exists_error(path: str | os.PathLike[str]) -> FileExistsError:
-    """Build the error for refusing to overwrite ``path``.
-
-    It names the parameter ``force=True``; the command line says ``--force`` in its own message.
+    """Build the error for refusing to overwrite ``path`` (it names ``force=True``).
 
     Parameters
     ----------
@@ -300,16 +294,7 @@ def _slug(text: str) -> str:
 
 
 class LoopCheckpoint:
-    """Save each finished chunk of a closed-loop study at once; the whole table at the end.
-
-    Parameters
-    ----------
-    path : str or path-like
-        The final table (``.parquet``, ``.pq`` or ``.csv``); the chunks go to the folder
-        ``<path>.parts`` (Parquet).
-    force : bool, optional
-        Overwrite an existing table or parts folder.
-    """
+    """Save each finished chunk of a closed-loop study to ``<path>.parts``; the table at the end."""
 
     def __init__(self, path: str | os.PathLike[str], force: bool = False) -> None:
         self.path = Path(path)
