@@ -20,8 +20,8 @@ from typing import Annotated, Any
 import typer
 from rich.console import Console
 
-out = Console()
-err = Console(stderr=True)
+out = Console(highlight=False)
+err = Console(stderr=True, highlight=False)
 
 
 def print_wide(renderable: object) -> None:
@@ -31,7 +31,7 @@ def print_wide(renderable: object) -> None:
 
 def fail(message: str) -> typer.Exit:
     """Print ``error: message`` on standard error and return the exit (status 2) to raise."""
-    err.print(f"[bold red]error:[/] {message}", highlight=False, markup=True, soft_wrap=True)
+    err.print(f"[bold red]error:[/] {message}", markup=True, soft_wrap=True)
     return typer.Exit(2)
 
 
@@ -62,8 +62,7 @@ def parse_origin(text: str | None) -> tuple[float, float, float] | None:
     try:
         lat, lon, alt = (float(v) for v in text.split(","))
     except ValueError:
-        raise fail(f"--origin {text!r}: expected LAT,LON,ALT in degrees, degrees, "
-                   "metres") from None
+        raise fail(f"--origin {text!r}: expected LAT,LON,ALT in degrees, degrees, metres") from None
     if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 360.0 and math.isfinite(alt)):
         raise fail(f"--origin {text!r}: expected a latitude in [-90, 90] deg, a longitude in "
                    "[-180, 360] deg and a finite altitude (m)")
@@ -301,8 +300,7 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
     if "bearing_sigma" in options:  # --bearing-sigma is in degrees
         options["bearing_sigma_deg"] = options.pop("bearing_sigma")
     try:
-        meas = read_measurements(paths[0] if len(paths) == 1 else paths, origin=origin,
-                                 **options)
+        meas = read_measurements(paths[0] if len(paths) == 1 else paths, origin=origin, **options)
     except OSError as e:
         raise fail(f"{e.filename or paths[0]}: cannot be read ({e.strerror or e})") from None
     except (MeasurementFileError, ValueError) as e:
@@ -311,10 +309,10 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
         raise fail(str(e).replace(ORIGIN_HINT, "--origin LAT,LON,ALT")) from None
     for note in reader_notes(meas.metadata, pop=True):
         if notes:
-            err.print(note, highlight=False, markup=False, soft_wrap=True)
+            err.print(note, markup=False, soft_wrap=True)
     if origin is not None and "origin_lat" not in meas.metadata:
         err.print(f"warning: --origin is for files with sensor_lat/sensor_lon; {paths[0].name} "
-                  "gives ENU positions, so it is not used", highlight=False)
+                  "gives ENU positions, so it is not used")
     return only_kinds(meas, kinds, paths)
 
 
@@ -524,8 +522,7 @@ def write_picture(path: Path, force: bool, draw: Callable[[Path], Any]) -> None:
     """Draw a picture into a temporary file and move it into place (never a partial file)."""
     from ..io import atomic_write
 
-    with failing(written=path, errors=()), atomic_write(path, force=force,
-                                                         keep_suffix=True) as tmp:
+    with failing(written=path, errors=()), atomic_write(path, force=force, keep_suffix=True) as tmp:
         draw(tmp)
 
 

@@ -60,8 +60,7 @@ FORMAT_LINE = "# tmakit measurements v1"
 PARQUET_METADATA_PREFIX = "tmakit:"
 #: Column order of written files (the ``ref_sensor_*`` columns follow when the set has
 #: range differences).
-COLUMN_ORDER = ("time", "sensor", "kind", "value", "sigma", *SENSOR_STATE_COLUMNS,
-                "time_ref")
+COLUMN_ORDER = ("time", "sensor", "kind", "value", "sigma", *SENSOR_STATE_COLUMNS, "time_ref")
 #: Sensor position as latitude (deg), longitude (deg) and altitude (m, WGS-84).
 GEO_COLUMNS = ("sensor_lat", "sensor_lon", "sensor_alt")
 #: Columns read as numbers (float64, NaN for an empty cell).
@@ -310,8 +309,7 @@ def sensor_state(num: Numbers, layout: Layout, origin: Any, problems: Problems
     origin_metadata: dict[str, str] = {}
     if layout.geodetic:
         if "sensor_lat" in num and "sensor_lon" in num:
-            enu_origin, origin_metadata = resolve_origin(origin, problems.raw.metadata,
-                                                         problems)
+            enu_origin, origin_metadata = resolve_origin(origin, problems.raw.metadata, problems)
             if enu_origin is not None:
                 rule = _geodetic_positions(num, enu_origin, state, problems)
                 if rule:
@@ -527,10 +525,8 @@ def check_table(path: str | os.PathLike[str], raw: RawTable,
     frame, n = raw.frame, len(raw.frame)
     problems = Problems(raw)
     has = set(frame.columns).__contains__
-    sensor = (text_column(frame["sensor"]) if has("sensor")
-              else np.full(n, "", dtype=object))
-    kind = (_stripped(text_column(frame["kind"])) if has("kind")
-            else np.full(n, "", dtype=object))
+    sensor = (text_column(frame["sensor"]) if has("sensor") else np.full(n, "", dtype=object))
+    kind = (_stripped(text_column(frame["kind"])) if has("kind") else np.full(n, "", dtype=object))
     is_rd = np.isin(kind, reference_kinds())
 
     layout = check_columns(frame.columns, [k for k in KINDS if np.any(kind == k)], problems)
@@ -599,8 +595,7 @@ def check_columns(columns: Collection[str], kinds: list[str], problems: Problems
     if ref:
         for c in ("ref_sensor_x", "ref_sensor_y"):
             if not has(c):
-                problems.missing(c, f" ({', '.join(ref)} {'is' if len(ref) == 1 else 'are'}"
-                                    " given)")
+                problems.missing(c, f" ({', '.join(ref)} {'is' if len(ref) == 1 else 'are'} given)")
     return Layout(geodetic, has_velocity, bool(ref))
 
 

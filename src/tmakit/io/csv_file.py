@@ -499,8 +499,7 @@ def _reference_states(cols: _Columns, has_velocity: bool) -> NDArray[np.float64]
         given = ~np.isnan(block[:, 0])
         for i in absent:
             block[given, i] = 0.0
-        counts += np.bincount(sensor[lo:lo + QUERY_ROWS][_need(kind, ref, lo)],
-                              minlength=names)
+        counts += np.bincount(sensor[lo:lo + QUERY_ROWS][_need(kind, ref, lo)], minlength=names)
     for code in np.flatnonzero(counts).tolist():
         mine = None if names == 1 else np.flatnonzero(sensor == code)
         record = SensorRecord(time, cols.state, mine, has_velocity)
@@ -516,8 +515,7 @@ def _reference_states(cols: _Columns, has_velocity: bool) -> NDArray[np.float64]
 def _need(kind: NDArray[np.int8], ref: NDArray[np.float64], lo: int) -> NDArray[np.bool_]:
     """Flag the range differences without ``ref_sensor_*`` cells of a block from row ``lo``."""
     hi = lo + QUERY_ROWS
-    return (_USES_REFERENCE[kind[lo:hi]] & ~_BETWEEN_SENSORS[kind[lo:hi]]
-            & np.isnan(ref[lo:hi, 0]))
+    return (_USES_REFERENCE[kind[lo:hi]] & ~_BETWEEN_SENSORS[kind[lo:hi]] & np.isnan(ref[lo:hi, 0]))
 
 
 def _origin(origin: tuple[float, float, float] | None, metadata: dict[str, str]

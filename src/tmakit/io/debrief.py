@@ -172,8 +172,7 @@ def _number(token: str, what: str, null: bool = False) -> float | None:
     return value
 
 
-def _angle(tokens: list[str], at: int, hemispheres: str, limit: float,
-           carries: list[str]) -> float:
+def _angle(tokens: list[str], at: int, hemispheres: str, limit: float, carries: list[str]) -> float:
     """Degrees from ``D M S H`` at ``tokens[at:at+4]``; a minute or second of 60 is a carry."""
     if len(tokens) < at + 4:
         raise LineError(f"expected a position D M S {'/'.join(hemispheres)}, found the end of "
@@ -196,8 +195,7 @@ def _angle(tokens: list[str], at: int, hemispheres: str, limit: float,
 
 
 def _position(tokens: list[str], at: int, carries: list[str]) -> tuple[float, float]:
-    return (_angle(tokens, at, "NS", 90.0, carries),
-            _angle(tokens, at + 4, "EW", 180.0, carries))
+    return (_angle(tokens, at, "NS", 90.0, carries), _angle(tokens, at + 4, "EW", 180.0, carries))
 
 
 def _track(tokens: list[str], line: int, carries: list[str]) -> TrackLine:
@@ -357,8 +355,7 @@ _RANGES_CHOICES = ("use", "ignore")
 
 def _paths(path: ReplayPaths) -> tuple[list[Path], Path]:
     """Return the files and the name that messages give them (``A.rep + B.dsf``)."""
-    paths = ([Path(path)] if isinstance(path, str | os.PathLike)
-             else [Path(p) for p in path])
+    paths = ([Path(path)] if isinstance(path, str | os.PathLike) else [Path(p) for p in path])
     if not paths:
         raise ValueError("read_replay: no file given")
     return paths, Path(" + ".join(str(p) for p in paths))
@@ -701,8 +698,7 @@ def _at_line(item: TrackLine | SensorLine | LineProblem) -> str:
 
 def _listed(items: Sequence[str], most: int = 5, sep: str = "; ") -> str:
     """Join the first ``most`` items, then say how many more there are."""
-    return sep.join(items[:most]) + (f" and {len(items) - most} more" if len(items) > most
-                                     else "")
+    return sep.join(items[:most]) + (f" and {len(items) - most} more" if len(items) > most else "")
 
 
 def _values(item: TrackLine | SensorLine) -> str:
