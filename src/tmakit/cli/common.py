@@ -1,8 +1,6 @@
 """What every ``tma`` command shares: consoles, errors, options, reading files, checking outputs.
 
-Messages name the option or file at fault (``error: ...``, exit status 2); an output is refused
-before any work when it exists without ``--force``, is a folder, is an input or cannot be
-written.  Nothing numerical is imported at module level (``tma --help`` stays light).
+Nothing numerical is imported at module level (``tma --help`` stays light).
 """
 
 from __future__ import annotations

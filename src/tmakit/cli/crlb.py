@@ -1,7 +1,4 @@
-"""``tma crlb`` and ``tma gdop``: the Cramér-Rao lower bound of a file or a scenario, and its map.
-
-``tma gdop``: CEP50 and CEP90 of a stationary emitter over a grid, for a sensor layout.
-"""
+"""``tma crlb`` and ``tma gdop``: the Cramér-Rao lower bound of a file or a scenario; its map."""
 
 from __future__ import annotations
 

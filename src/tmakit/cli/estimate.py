@@ -1,10 +1,4 @@
-"""``tma estimate`` and ``tma report``: the trajectory from a measurement file, and its answers.
-
-By maximum likelihood (``ml``, also for manoeuvring targets) or by one of the papers' methods.
-The answers table, the own-ship legs, the towed array's ambiguity, the solution page and the
-exports are laid out here (``tma track`` shares them); what they say is computed in
-:mod:`tmakit.results`.
-"""
+"""``tma estimate`` and ``tma report``; the answers, legs and exports that ``tma track`` shares."""
 
 from __future__ import annotations
 

@@ -1,10 +1,6 @@
-"""No traceback reaches a user of ``tma``: the guard around every command.
+"""No traceback reaches a user of ``tma``: the guard around every command, and its exit statuses.
 
-An exception a command did not turn into an ``error: ...`` message becomes one line naming the
-command and the failure, with exit status :data:`EXIT_INTERNAL`, its traceback in a log file
-(``tma --debug`` or ``TMA_DEBUG=1`` lets it through).  Ctrl-C exits with 130, SIGTERM with 143,
-after the files being written are cleaned up; unwritable output ends with status 1
-(:func:`write_failed`).  Nothing numerical is imported here.
+Nothing numerical is imported here.
 """
 
 from __future__ import annotations

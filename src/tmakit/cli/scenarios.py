@@ -1,10 +1,4 @@
-"""File commands: ``tma scenarios``, ``simulate``, ``show``, ``demo``, ``import``, ``examples``.
-
-The built-in scenarios and their simulated measurement files; a file's summary and picture; real
-logs (Debrief, a wide CSV/Parquet log with its column mapping, GPX/NMEA own track with a
-measurement log) into tmakit's measurement file, its metadata keeping the clock time of t = 0
-and the ENU origin; and the sample logs.
-"""
+"""File commands: ``tma scenarios``, ``simulate``, ``show``, ``demo``, ``import``, ``examples``."""
 
 from __future__ import annotations
 

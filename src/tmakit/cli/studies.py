@@ -1,10 +1,4 @@
-"""The commands that run many simulations: ``tma montecarlo``, ``tma reproduce`` and ``tma plan``.
-
-``tma montecarlo`` compares a scenario's RMSE with the CRLB; ``tma reproduce`` sets a paper's
-tables and figures next to its own numbers; ``tma plan`` steers a scenario's sensor by the
-predicted PCRB in the closed loop (its ``[planning]`` table, docs/planning.md), beside the fixed
-pattern, and writes the per-step table (flown path, truth, estimates, bound).
-"""
+"""The commands that run many simulations: ``tma montecarlo``, ``reproduce`` and ``plan``."""
 
 from __future__ import annotations
 

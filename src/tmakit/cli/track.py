@@ -1,9 +1,4 @@
-"""``tma track``: a recursive filter's state and covariance after every update.
-
-Its options (parsed and checked before the file is read, library errors put in the words of the
-flags that would fix them), its table, JSON, file and picture, and ``--follow`` (a live watch of
-growing files).
-"""
+"""``tma track``: a recursive filter's state and covariance after every update; ``--follow``."""
 
 from __future__ import annotations
 

@@ -378,12 +378,18 @@ def _load(paths: list[Path]) -> ParsedReplay:
     return merged
 
 
-def replay_tracks(path: ReplayPaths) -> dict[str, dict[str, NDArray]]:
-    """Read the track lines of a replay file (or of several, as one replay), by track name."""
+def _load_valid(path: ReplayPaths) -> ParsedReplay:
+    """Parse replay files, refusing every line that breaks the format."""
     paths, where = _paths(path)
     parsed = _load(paths)
     if parsed.problems:
         raise MeasurementFileError(where, [_problem(p) for p in parsed.problems])
+    return parsed
+
+
+def replay_tracks(path: ReplayPaths) -> dict[str, dict[str, NDArray]]:
+    """Read the track lines of a replay file (or of several, as one replay), by track name."""
+    parsed = _load_valid(path)
     out: dict[str, dict[str, NDArray]] = {}
     for name in dict.fromkeys(t.name for t in parsed.tracks):
         mine = sorted((t for t in parsed.tracks if t.name == name), key=lambda t: t.time_ns)
@@ -398,11 +404,7 @@ def replay_tracks(path: ReplayPaths) -> dict[str, dict[str, NDArray]]:
 
 def replay_solutions(path: ReplayPaths) -> list[SolutionLine]:
     """Read the TMA solution points of a replay file (``;TMA_POS:`` and ``;TMA_RB:`` lines)."""
-    paths, where = _paths(path)
-    parsed = _load(paths)
-    if parsed.problems:
-        raise MeasurementFileError(where, [_problem(p) for p in parsed.problems])
-    return parsed.solutions
+    return _load_valid(path).solutions
 
 
 def _problem(p: LineProblem) -> str:
@@ -746,27 +748,21 @@ def _host_fixes(path: Path, tracks: list[TrackLine], host: str, rows: list[Senso
                notes: list[str]) -> Fixes:
     """Return the host's fixes: its track lines, else the positions its sensor lines state."""
     mine = [t for t in tracks if t.name == host]
-    if not mine:
-        stated = [s for s in rows if s.lat is not None]
-        null = [s for s in rows if s.lat is None]
-        if null and not stated:
-            named = ", ".join(dict.fromkeys(t.name for t in tracks)) or "none"
-            lines = _listed([_at_line(s) for s in null], sep=", ")
-            raise MeasurementFileError(path, [
-                f"sensor positions NULL ({lines}), but own ship {host!r} has no track lines "
-                f"(tracks read: {named}): {_PAIR_HINT}"])
-        fixes = _unique(path, stated, host, notes)
-        return Fixes(np.array([s.time_ns for s in fixes], np.int64),
-                     np.array([s.lat for s in fixes], float),
-                     np.array([s.lon for s in fixes], float), np.zeros(len(fixes)), None,
-                     np.array([s.line for s in fixes], np.int64))
-    kept = [t for t in _unique(path, mine, host, notes) if isinstance(t, TrackLine)]
-    return Fixes(np.array([t.time_ns for t in kept], np.int64),
-                 np.array([t.lat for t in kept]), np.array([t.lon for t in kept]),
-                 np.zeros(len(kept)),
-                 course_speed_velocity(np.array([t.course for t in kept]),
-                                       np.array([t.speed_kn for t in kept]) * KNOT),
-                 np.array([t.line for t in kept], np.int64))
+    stated = [s for s in rows if s.lat is not None]
+    null = [s for s in rows if s.lat is None]
+    if not mine and null and not stated:
+        named = ", ".join(dict.fromkeys(t.name for t in tracks)) or "none"
+        lines = _listed([_at_line(s) for s in null], sep=", ")
+        raise MeasurementFileError(path, [
+            f"sensor positions NULL ({lines}), but own ship {host!r} has no track lines "
+            f"(tracks read: {named}): {_PAIR_HINT}"])
+    kept = _unique(path, mine or stated, host, notes)
+    fixes = [t for t in kept if isinstance(t, TrackLine)]  # (all of them when mine)
+    velocity = None if not mine else course_speed_velocity(
+        np.array([t.course for t in fixes]), np.array([t.speed_kn for t in fixes]) * KNOT)
+    return Fixes(np.array([k.time_ns for k in kept], np.int64),
+                 np.array([k.lat for k in kept], float), np.array([k.lon for k in kept], float),
+                 np.zeros(len(kept)), velocity, np.array([k.line for k in kept], np.int64))
 
 
 def _sensor_states(path: Path, rows: list[SensorLine], fixes: Fixes, frame: LocalFrame,
