@@ -165,8 +165,6 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
 
 def max_manoeuvres() -> int:
     """Give the most manoeuvres ``--motion curvilinear:M`` may search (``TMA_MAX_MANOEUVRES``)."""
-    import os
-
     try:
         return max(0, int(os.environ.get("TMA_MAX_MANOEUVRES", "5")))
     except ValueError:

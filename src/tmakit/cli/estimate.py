@@ -750,12 +750,6 @@ def check_solution_outputs(html: Path | None, exports: list[Path] | None, force:
                            options=dict(options or {}))
 
 
-def check_page(html: Path | None, force: bool, inputs: list[Path], plot: Path | None
-               ) -> Path | None:
-    """Check ``--html`` alone (``tma track``): :func:`check_solution_outputs` without exports."""
-    return check_solution_outputs(html, None, force, inputs, taken=[plot]).html
-
-
 def write_solution_outputs(meas: Any, result: Any, outputs: SolutionOutputs, answers: bool,
                            say: Any) -> None:
     """Write the page and the exports; say what was written (or why an export was not)."""

@@ -91,18 +91,17 @@ def _study(scn: Any, partial: Path | None, **options: Any) -> Any:
 
 def _write_results(res: Any, output: Path | None, json_file: Path | None, force: bool) -> None:
     """Write the table and the JSON; a file that appeared meanwhile: the results go beside it."""
-    from ..io import atomic_write
-    from ..io.tables import write_study_table
+    from ..io import atomic_write, write_table
 
     def write_json(path: Path, force: bool) -> None:
         with atomic_write(path, force=force) as tmp:
             tmp.write_text(res.to_json() + "\n")
 
-    def write_table(path: Path, force: bool) -> None:
-        write_study_table(res, path, force=force)
+    def write_runs(path: Path, force: bool) -> None:
+        write_table(path, res.table, force=force, what="the per-run table")
 
     lost = False
-    for path, write in ((output, write_table), (json_file, write_json)):
+    for path, write in ((output, write_runs), (json_file, write_json)):
         if path is None:
             continue
         try:

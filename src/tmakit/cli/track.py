@@ -44,7 +44,7 @@ from .estimate import (
     SolutionOutputs,
     UnitsOption,
     answer_or_fail,
-    check_page,
+    check_solution_outputs,
     check_units,
     print_answers,
     print_warnings,
@@ -157,7 +157,7 @@ def track(
     output, plot = check_track_options(output, plot, force, filter_name, particles, seed,
                                        ellipses, rows, (*files, logs["mapping"]))
     check_units(units)
-    page = check_page(html, force, [*files], plot)
+    page = check_solution_outputs(html, None, force, [*files], taken=[plot]).html
     reading = (parse_origin(origin), dim, reader_options(**logs))
     options = model_options(drift, free_exponent, propagation_speed)
     tracked = partial(track_files, reading=reading, q=(q, q_density), filter_name=filter_name,
@@ -256,6 +256,8 @@ class Watch:
             return False
         self.count += 1
         answer = answer_or_fail(tr, meas, self.sensor)
+        from ..results import measurement_warnings
+
         trust = track_trust(tr, measurement_warnings(meas))
         if self.as_json:
             import json
@@ -312,6 +314,7 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
     import json
 
     from .. import tracking
+    from ..results import measurement_warnings
 
     warnings = measurement_warnings(meas)
     trust = track_trust(tr, warnings)
@@ -342,13 +345,6 @@ def track_trust(tr: Any, warnings: list[Any]) -> Any:
         if verdict:
             reasons.insert(0, SanityWarning("inconsistent-innovations", verdict))
     return Trust(TRUST_WARNING if reasons else TRUST_OK, reasons)
-
-
-def measurement_warnings(meas: Any) -> list[Any]:
-    """Return the sanity warnings about the measurements (radians, far sensors)."""
-    from ..results import measurement_warnings as check
-
-    return check(meas)
 
 
 def write_track_outputs(file: Path, meas: Any, tr: Any, truth: Any, output: Path | None,

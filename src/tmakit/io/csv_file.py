@@ -267,30 +267,19 @@ class _Columns:
         self.ref: NDArray[np.float64] | None = None
         self.ref_columns: list[int] = []
 
-    def _arrays(self) -> list[NDArray[Any]]:
-        """List the per-row arrays (the 1-D ones)."""
-        return [*self.num.values(), self.sensor, self.kind,
-                *(() if self.time_ref is None else (self.time_ref,))]
-
-    def reserve(self, rows: int) -> None:
-        """Make room for ``rows`` more rows (grown by a quarter at least)."""
-        need = self.n + rows
-        if need <= self.kind.shape[0]:
-            return
-        size = max(need, int(self.kind.shape[0] * 1.25))
-        for a in self._arrays():
-            a.resize(size, refcheck=False)
+    def resize(self, size: int) -> None:
+        """Give every per-row array ``size`` rows, in place."""
+        for a in (*self.num.values(), self.sensor, self.kind, self.time_ref):
+            if a is not None:
+                a.resize(size, refcheck=False)
         for b in (self.state, self.ref):
             if b is not None:
                 b.resize((size, 6), refcheck=False)
 
-    def trim(self) -> None:
-        """Drop the spare rows."""
-        for a in self._arrays():
-            a.resize(self.n, refcheck=False)
-        for b in (self.state, self.ref):
-            if b is not None:
-                b.resize((self.n, 6), refcheck=False)
+    def reserve(self, rows: int) -> None:
+        """Make room for ``rows`` more rows (grown by a quarter at least)."""
+        if self.n + rows > self.kind.shape[0]:
+            self.resize(max(self.n + rows, int(self.kind.shape[0] * 1.25)))
 
     def put_reference(self, name: str, values: NDArray[np.float64]) -> None:
         """Store a block of ``time_ref`` or a ``ref_sensor_*`` column (NaN for empty)."""
@@ -399,7 +388,7 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
     _give_back()
     if cols is None or cols.n == 0:
         raise _Fallback
-    cols.trim()
+    cols.resize(cols.n)  # the spare rows dropped
     return cols
 
 

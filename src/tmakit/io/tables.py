@@ -17,12 +17,10 @@ if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
     import pyarrow as pa
 
-    from ..montecarlo import MonteCarloResult
     from ..montecarlo.closed_loop import ClosedLoopStudy, LoopChunk
 
 __all__ = ["TABLE_SUFFIXES", "TEMP_PATTERN", "LoopCheckpoint", "atomic_write",
-           "clean_stale_temporaries", "exists_error", "fsync_file", "table_format",
-           "write_loop_table", "write_study_table", "write_table"]
+           "clean_stale_temporaries", "exists_error", "fsync_file", "table_format", "write_table"]
 
 try:
     import fcntl
@@ -276,19 +274,6 @@ def _arrow_column(values: Any, kind: pa.DataType) -> pa.Array:
     return pa.array(np.asarray(values), type=kind)
 
 
-def write_study_table(res: MonteCarloResult, path: str | os.PathLike[str],
-                      force: bool = False) -> Path:
-    """Write the per-run table of a Monte Carlo study."""
-    # write_table refuses another suffix, naming "the per-run table".
-    return write_table(path, res.table, force=force, what="the per-run table")
-
-
-def write_loop_table(study: ClosedLoopStudy, path: str | os.PathLike[str],
-                     force: bool = False) -> Path:
-    """Write the per-step table of a closed-loop study."""
-    return write_table(path, study.table(), force=force, what="the per-step table")
-
-
 def _slug(text: str) -> str:
     return "".join(c if c.isalnum() or c in "-_" else "_" for c in text)
 
@@ -317,7 +302,7 @@ class LoopCheckpoint:
 
     def finish(self, study: ClosedLoopStudy) -> Path:
         """Write the whole table, then remove the parts folder."""
-        out = write_loop_table(study, self.path, force=self.force)
+        out = write_table(self.path, study.table(), force=self.force, what="the per-step table")
         if self.parts.is_dir():
             shutil.rmtree(self.parts)
         return out
