@@ -47,86 +47,83 @@ _VERSIONS = {";SENSOR:": 1, ";SENSOR2:": 2, ";SENSOR3:": 3}
 _SOLUTIONS = (";TMA_POS:", ";TMA_RB:")
 
 
+# The lines as read: times in ns since the Unix epoch (UTC), angles in degrees (true), ``line``
+# 1-based, ``file`` the file's name when several are read as one replay; None: not in the line.
+
+
 @dataclass(frozen=True)
 class TrackLine:
-    """A track fix of a replay file."""
+    """A track fix of a replay file (depth in m)."""
 
-    line: int  # Line number in the file (1-based)
-    name: str  # The track's name
-    time_ns: int  # Time, ns since the Unix epoch (UTC)
-    #: lat, lon: Position, degrees
+    line: int
+    name: str
+    time_ns: int
     lat: float
     lon: float
-    #: course, speed_kn, depth: Course (degrees true), speed (knots) and depth (m)
     course: float
     speed_kn: float
     depth: float
-    file: str = ""  # The file's name (for messages when several files are read as one replay)
+    file: str = ""
 
 
 @dataclass(frozen=True)
 class SensorLine:
-    """A ``;SENSOR:``, ``;SENSOR2:`` or ``;SENSOR3:`` contact (None: ``NULL`` in the file)."""
+    """A ``;SENSOR:``, ``;SENSOR2:`` or ``;SENSOR3:`` contact of the track ``host`` (Hz, yards).
 
-    line: int  # Line number in the file (1-based)
-    host: str  # The track that holds the sensor
-    time_ns: int  # Time, ns since the Unix epoch (UTC)
-    #: lat, lon: The sensor's position, degrees (None: the host track's position at ``time_ns``)
+    ``lat``, ``lon`` None: the host track's position at ``time_ns``; the accuracies are the
+    standard deviations a ``;SENSOR3:`` line states.
+    """
+
+    line: int
+    host: str
+    time_ns: int
     lat: float | None
     lon: float | None
-    #: bearing, ambiguous: Bearing and its ambiguous twin, degrees true
     bearing: float | None
     ambiguous: float | None
-    frequency: float | None  # Frequency, Hz
-    range_yd: float | None  # Range, yards
-    #: sensor, label: The sensor's name and the contact's label
+    frequency: float | None
+    range_yd: float | None
     sensor: str
     label: str
-    #: bearing_accuracy, frequency_accuracy: The standard deviations a ``;SENSOR3:`` line states
-    #: (deg, Hz); None elsewhere
     bearing_accuracy: float | None = None
     frequency_accuracy: float | None = None
-    file: str = ""  # The file's name (for messages when several files are read as one replay)
+    file: str = ""
 
 
 @dataclass(frozen=True)
 class SolutionLine:
-    """A ``;TMA_POS:`` or ``;TMA_RB:`` solution point (None where the line does not say)."""
+    """A ``;TMA_POS:`` (position) or ``;TMA_RB:`` (from the vessel) solution point.
 
-    line: int  # Line number in the file (1-based)
-    vessel: str  # The track the solution belongs to (Debrief's "ownship name")
-    time_ns: int  # Time, ns since the Unix epoch (UTC)
-    #: lat, lon: The solution's position, degrees (``;TMA_POS:``)
+    The ellipse: its major axis ``orientation`` and semi-axes in yards; ``label``: the rest of
+    the line.
+    """
+
+    line: int
+    vessel: str
+    time_ns: int
     lat: float | None
     lon: float | None
-    #: bearing, range_yd: Its bearing (degrees true) and range (yards) from the vessel
-    #: (``;TMA_RB:``)
     bearing: float | None
     range_yd: float | None
-    solution: str  # The solution's name
-    #: orientation, maxima_yd, minima_yd: The ellipse: its major axis (degrees true) and semi-axes
-    #: (yards); None for ``NULL``
+    solution: str
     orientation: float | None
     maxima_yd: float | None
     minima_yd: float | None
-    #: course, speed_kn, depth: Course (degrees true), speed (knots), depth (m)
     course: float
     speed_kn: float
     depth: float
-    label: str  # The rest of the line
-    file: str = ""  # The file's name
+    label: str
+    file: str = ""
 
 
 @dataclass(frozen=True)
 class LineProblem:
-    """A line that breaks the replay format."""
+    """A line that breaks the replay format, and the track it belongs to (None: unknown)."""
 
-    line: int  # Line number in the file (1-based)
-    #: The track the line belongs to (a track line's name, a sensor line's host), None when the line
-    #: does not get that far
+    line: int
     owner: str | None
-    message: str  # What is wrong (``expected ..., found ...``)
-    file: str = ""  # The file's name
+    message: str
+    file: str = ""
 
 
 class LineError(ValueError):
@@ -289,15 +286,12 @@ def _solution(tokens: list[str], line: int, head: str, carries: list[str]) -> So
 
 @dataclass
 class ParsedReplay:
-    """The lines of one or more replay files, parsed."""
+    """The lines of one or more replay files, parsed, in file order."""
 
-    tracks: list[TrackLine]  # The track fixes, in file order
-    #: The ``;SENSOR:``, ``;SENSOR2:`` and ``;SENSOR3:`` contacts, in file order
+    tracks: list[TrackLine]
     sensors: list[SensorLine]
-    problems: list[LineProblem]  # Every line that breaks the format
-    #: Each position written with a minute or second of 60 (a carry), as written
-    carries: list[LineProblem]
-    #: The ``;TMA_POS:`` and ``;TMA_RB:`` solution points, in file order
+    problems: list[LineProblem]
+    carries: list[LineProblem]  # positions written with a minute or second of 60
     solutions: list[SolutionLine] = field(default_factory=list)
 
 
