@@ -73,21 +73,20 @@ def parse_assignments(text: str | None, option: str) -> dict[str, float]:
         return {}
     values: dict[str, float] = {}
     for part in text.split(","):
-        name, eq, value = part.partition("=")
+        name, eq, value = (s.strip() for s in part.partition("="))
         try:
-            if not eq or not name.strip():
+            if not eq or not name:
                 raise ValueError
             number = float(value)
-            if not math.isfinite(number) or name.strip() in values:
-                raise fail(f"{option} {text!r}: {name.strip()} is given twice" if
-                           name.strip() in values else
-                           f"{option} {text!r}: {name.strip()}={value.strip()} is not a "
-                           "finite number")
-            values[name.strip()] = number
         except ValueError:
             raise fail(f"{option} {text!r}: expected name=value pairs separated by commas, "
                        f"e.g. x=3200,y=3200,vx=-21.65,vy=-12.5 (problem at {part!r})"
                        ) from None
+        if name in values:
+            raise fail(f"{option} {text!r}: {name} is given twice")
+        if not math.isfinite(number):
+            raise fail(f"{option} {text!r}: {name}={value} is not a finite number")
+        values[name] = number
     return values
 
 
