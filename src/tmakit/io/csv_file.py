@@ -104,10 +104,6 @@ def _preamble(data: bytes, complete: bool) -> tuple[dict[str, str], int, int] | 
 
 def _record_lines(path: Path, body: bytes, pre_lines: int) -> tuple[list[str], NDArray[np.int64]]:
     """Read the header names and the line of each data record."""
-    plain = _plain_records(body, pre_lines)
-    if plain is not None:
-        header, header_line, lines, problems = plain
-        return _checked_header(path, header, header_line, problems), lines
     reader = csv.reader(io.TextIOWrapper(io.BytesIO(body), encoding="utf-8", newline=""))
     first: list[str] | None = next(reader, None)
     if first is None:
@@ -154,42 +150,6 @@ def _checked_header(path: Path, header: list[str], header_line: int,
     if problems:
         raise MeasurementFileError(path, problems)
     return names
-
-
-#: Bytes of the body scanned at a time by :func:`_plain_records` (bounds its temporaries).
-_SCAN_BYTES = 1 << 22
-
-
-def _plain_records(body: bytes, pre_lines: int
-                   ) -> tuple[list[str], int, NDArray[np.int64], list[str]] | None:
-    """Split a body without quotes, carriage returns or NUL bytes into its records, in NumPy."""
-    if not body or b'"' in body or b"\r" in body or b"\0" in body:
-        return None
-    arr = np.frombuffer(body, dtype=np.uint8)
-    n = arr.size
-    ends = np.concatenate([np.flatnonzero(arr[lo:lo + _SCAN_BYTES] == 10) + lo
-                           for lo in range(0, n, _SCAN_BYTES)])
-    if ends.size == 0 or ends[-1] != n - 1:
-        ends = np.append(ends, n)  # the last line has no line end
-    starts = np.concatenate([[0], ends[:-1] + 1])
-    length = ends - starts
-    if length[0] == 0 or length.max() > csv.field_size_limit():
-        return None
-    commas = np.empty(starts.size, dtype=np.int64)
-    cuts = np.unique(np.searchsorted(starts, np.arange(0, n, _SCAN_BYTES)))
-    cuts = cuts[cuts < starts.size].tolist()
-    for i0, i1 in zip(cuts, [*cuts[1:], starts.size], strict=True):
-        lo, hi = int(starts[i0]), int(ends[i1 - 1]) + 1  # whole lines, line ends included
-        seg = (arr[lo:hi] == 44).view(np.uint8)  # the commas
-        commas[i0:i1] = np.add.reduceat(seg, starts[i0:i1] - lo, dtype=np.int64)
-    header = body[:int(ends[0])].decode("utf-8").split(",")
-    kept = np.flatnonzero(length[1:] > 0) + 1  # a blank line is skipped, as pandas does
-    lines = pre_lines + kept + 1
-    fields = commas[kept] + 1
-    problems = [f"row {r + 1} (line {lines[r]}): expected {len(header)} fields (one per header "
-                f"column), found {fields[r]}"
-                for r in np.flatnonzero(fields != len(header)).tolist()]
-    return header, pre_lines + 1, lines.astype(np.int64), problems
 
 
 def _give_back() -> None:
