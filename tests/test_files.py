@@ -566,27 +566,28 @@ def test_a_bad_cell_keeps_its_row_number(tmp_path):
     assert "row 5 (line 7), column 'sigma'" in message and "-1.50" in message
 
 
-_RECORD_BODIES = [b"a,b,c\n1,2,3\n", b"a,b,c\n1,2,3", b"a,b,c\n\n1,2,3\n\n\n4,5\n",
-                  b"a, b ,c\n1,2,3,4\n,,\n \n", b"a,a,\n1,2,3\n", b"a,b\n", b"a,b",
-                  b"x\n1\n\n2\n\n"]
+_FIELDS = "expected 3 fields (one per header column), found"
+_RECORDS = [
+    (b"a,b,c\n1,2,3\n", ("read", ["a", "b", "c"], [6])),
+    (b"a,b,c\n1,2,3", ("read", ["a", "b", "c"], [6])),
+    (b"a,b,c\n\n1,2,3\n\n\n4,5\n", ("refused", [f"row 2 (line 10): {_FIELDS} 2"])),
+    (b"a, b ,c\n1,2,3,4\n,,\n \n", ("refused", [f"row 1 (line 6): {_FIELDS} 4",
+                                               f"row 3 (line 8): {_FIELDS} 1"])),
+    (b"a,a,\n1,2,3\n", ("refused", ["line 5: column 'a' appears more than once in the header",
+                                    "line 5: column 3 of the header has no name"])),
+    (b"a,b\n", ("read", ["a", "b"], [])), (b"a,b", ("read", ["a", "b"], [])),
+    (b"x\n1\n\n2\n\n", ("read", ["x"], [6, 8]))]
 
 
-@pytest.mark.parametrize("body", _RECORD_BODIES)
-@pytest.mark.parametrize("scan", [3, 1 << 22])
-def test_plain_record_split_equals_the_csv_module(monkeypatch, body, scan):
-    """The NumPy split of a quote-free body gives the csv module's header, lines, problems."""
+@pytest.mark.parametrize(("body", "expected"), _RECORDS)
+def test_records_give_the_header_the_line_of_each_row_and_their_problems(body, expected):
+    """Blank lines are skipped, lines counted after 4 preamble lines, short and long rows named."""
     from tmakit.io import csv_file
     from tmakit.io.errors import MeasurementFileError
 
-    def outcome() -> tuple:
-        try:
-            names, lines = csv_file._record_lines(Path("x.csv"), body, 4)
-        except MeasurementFileError as e:
-            return ("refused", e.problems)
-        return ("read", names, lines.tolist())
-
-    monkeypatch.setattr(csv_file, "_SCAN_BYTES", scan)  # scanned in pieces, too
-    assert csv_file._plain_records(body, 4) is not None  # the NumPy split is used
-    plain = outcome()
-    monkeypatch.setattr(csv_file, "_plain_records", lambda body, pre_lines: None)
-    assert plain == outcome()
+    try:
+        names, lines = csv_file._record_lines(Path("x.csv"), body, 4)
+    except MeasurementFileError as e:
+        assert ("refused", e.problems) == expected
+    else:
+        assert ("read", names, lines.tolist()) == expected

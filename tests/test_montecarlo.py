@@ -193,10 +193,10 @@ def test_summary_text_and_json(gu2007_40):
 
 # -- saving ------------------------------------------------------------------------------------
 def test_save_writes_csv_and_parquet_and_refuses_to_overwrite(gu2007_40, tmp_path):
-    from tmakit.io.tables import write_study_table
+    from tmakit.io.tables import write_table
 
     def save(path, force=False):
-        return write_study_table(gu2007_40, path, force=force)
+        return write_table(path, gu2007_40.table, force=force, what="the per-run table")
 
     csv = tmp_path / "runs.csv"
     save(csv)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tmakit.io import positions
-from tmakit.io.positions import SensorRecord
+from tmakit.io import checker
+from tmakit.io.checker import SensorRecord
 from tmakit.sensors import RecordedTrack
 
 
@@ -38,7 +38,7 @@ def whole_track_states(t, state, tr, has_velocity):
 @pytest.mark.parametrize("shuffled", [False, True], ids=["in-order", "out-of-order"])
 def test_the_bounded_lookup_equals_the_whole_tracks_bit_for_bit(has_velocity, shuffled,
                                                                  monkeypatch):
-    monkeypatch.setattr(positions, "QUERY_ROWS", 16)  # many blocks of queries
+    monkeypatch.setattr(checker, "QUERY_ROWS", 16)  # many blocks of queries
     rng = np.random.default_rng(5)
     t, state = sensor_rows(300, rng)
     if shuffled:

@@ -9,7 +9,7 @@ import pytest
 
 import tmakit as tk
 from tmakit.data import MeasurementSet
-from tmakit.io import MeasurementFileError, csv_file, positions, read_measurements
+from tmakit.io import MeasurementFileError, checker, csv_file, read_measurements
 from tmakit.io.checker import check_table
 from tmakit.io.csv_file import load_csv
 
@@ -111,7 +111,7 @@ def geodetic_rows(n, climb):
 def test_a_streamed_latlon_file_equals_the_full_checkers_set(tmp_path, monkeypatch, climb,
                                                              preamble, origin, dim):
     monkeypatch.setattr(csv_file, "BLOCK_BYTES", 4096)  # ~20 blocks
-    monkeypatch.setattr(positions, "_ENU_ROWS", 97)  # converted in many pieces
+    monkeypatch.setattr(checker, "_ENU_ROWS", 97)  # converted in many pieces
     rows, header = geodetic_rows(300, climb or 0.0), GEO_HEADER
     if climb is None:  # drop the sensor_alt column
         rows = [",".join(r.split(",")[:7] + r.split(",")[8:]) for r in rows]
@@ -187,7 +187,7 @@ def test_a_streamed_file_with_range_differences_equals_the_full_checkers_set(tmp
 def test_a_streamed_latlon_file_with_range_differences_equals_the_full_checkers_set(
         tmp_path, monkeypatch):
     monkeypatch.setattr(csv_file, "BLOCK_BYTES", 4096)
-    monkeypatch.setattr(positions, "_ENU_ROWS", 97)
+    monkeypatch.setattr(checker, "_ENU_ROWS", 97)
     rows = []
     for row in geodetic_rows(200, 400.0):  # 3-D: the references from the ENU rows
         t = float(row.split(",")[0])

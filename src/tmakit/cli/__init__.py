@@ -1,10 +1,4 @@
-"""The ``tma`` command.
-
-Every command refuses to overwrite an output unless ``--force`` is given and reports bad input as
-``error: ...`` naming the file, row and field; the exit statuses are the ``EXIT_*`` constants of
-:mod:`tmakit.cli.guard`.  Its help (``-h`` as well as ``--help``) names each option's value by
-what it is (``--seed N``, ``FILE``), not by its Python type.
-"""
+"""The ``tma`` command: its commands registered, and help that names values (``--seed N``)."""
 
 from __future__ import annotations
 

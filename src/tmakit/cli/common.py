@@ -1,8 +1,6 @@
 """What every ``tma`` command shares: consoles, errors, options, reading files, checking outputs.
 
-Messages name the option or file at fault (``error: ...``, exit status 2); an output is refused
-before any work when it exists without ``--force``, is a folder, is an input or cannot be
-written.  Nothing numerical is imported at module level (``tma --help`` stays light).
+Nothing numerical is imported at module level (``tma --help`` stays light).
 """
 
 from __future__ import annotations
@@ -20,8 +18,8 @@ from typing import Annotated, Any
 import typer
 from rich.console import Console
 
-out = Console()
-err = Console(stderr=True)
+out = Console(highlight=False)
+err = Console(stderr=True, highlight=False)
 
 
 def print_wide(renderable: object) -> None:
@@ -31,7 +29,7 @@ def print_wide(renderable: object) -> None:
 
 def fail(message: str) -> typer.Exit:
     """Print ``error: message`` on standard error and return the exit (status 2) to raise."""
-    err.print(f"[bold red]error:[/] {message}", highlight=False, markup=True, soft_wrap=True)
+    err.print(f"[bold red]error:[/] {message}", markup=True, soft_wrap=True)
     return typer.Exit(2)
 
 
@@ -62,8 +60,7 @@ def parse_origin(text: str | None) -> tuple[float, float, float] | None:
     try:
         lat, lon, alt = (float(v) for v in text.split(","))
     except ValueError:
-        raise fail(f"--origin {text!r}: expected LAT,LON,ALT in degrees, degrees, "
-                   "metres") from None
+        raise fail(f"--origin {text!r}: expected LAT,LON,ALT in degrees, degrees, metres") from None
     if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 360.0 and math.isfinite(alt)):
         raise fail(f"--origin {text!r}: expected a latitude in [-90, 90] deg, a longitude in "
                    "[-180, 360] deg and a finite altitude (m)")
@@ -76,21 +73,20 @@ def parse_assignments(text: str | None, option: str) -> dict[str, float]:
         return {}
     values: dict[str, float] = {}
     for part in text.split(","):
-        name, eq, value = part.partition("=")
+        name, eq, value = (s.strip() for s in part.partition("="))
         try:
-            if not eq or not name.strip():
+            if not eq or not name:
                 raise ValueError
             number = float(value)
-            if not math.isfinite(number) or name.strip() in values:
-                raise fail(f"{option} {text!r}: {name.strip()} is given twice" if
-                           name.strip() in values else
-                           f"{option} {text!r}: {name.strip()}={value.strip()} is not a "
-                           "finite number")
-            values[name.strip()] = number
         except ValueError:
             raise fail(f"{option} {text!r}: expected name=value pairs separated by commas, "
                        f"e.g. x=3200,y=3200,vx=-21.65,vy=-12.5 (problem at {part!r})"
                        ) from None
+        if name in values:
+            raise fail(f"{option} {text!r}: {name} is given twice")
+        if not math.isfinite(number):
+            raise fail(f"{option} {text!r}: {name}={value} is not a finite number")
+        values[name] = number
     return values
 
 
@@ -168,8 +164,6 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
 
 def max_manoeuvres() -> int:
     """Give the most manoeuvres ``--motion curvilinear:M`` may search (``TMA_MAX_MANOEUVRES``)."""
-    import os
-
     try:
         return max(0, int(os.environ.get("TMA_MAX_MANOEUVRES", "5")))
     except ValueError:
@@ -301,20 +295,19 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
     if "bearing_sigma" in options:  # --bearing-sigma is in degrees
         options["bearing_sigma_deg"] = options.pop("bearing_sigma")
     try:
-        meas = read_measurements(paths[0] if len(paths) == 1 else paths, origin=origin,
-                                 **options)
+        meas = read_measurements(paths[0] if len(paths) == 1 else paths, origin=origin, **options)
     except OSError as e:
         raise fail(f"{e.filename or paths[0]}: cannot be read ({e.strerror or e})") from None
     except (MeasurementFileError, ValueError) as e:
-        from ..io.positions import ORIGIN_HINT
+        from ..io.checker import ORIGIN_HINT
 
         raise fail(str(e).replace(ORIGIN_HINT, "--origin LAT,LON,ALT")) from None
     for note in reader_notes(meas.metadata, pop=True):
         if notes:
-            err.print(note, highlight=False, markup=False, soft_wrap=True)
+            err.print(note, markup=False, soft_wrap=True)
     if origin is not None and "origin_lat" not in meas.metadata:
         err.print(f"warning: --origin is for files with sensor_lat/sensor_lon; {paths[0].name} "
-                  "gives ENU positions, so it is not used", highlight=False)
+                  "gives ENU positions, so it is not used")
     return only_kinds(meas, kinds, paths)
 
 
@@ -524,8 +517,7 @@ def write_picture(path: Path, force: bool, draw: Callable[[Path], Any]) -> None:
     """Draw a picture into a temporary file and move it into place (never a partial file)."""
     from ..io import atomic_write
 
-    with failing(written=path, errors=()), atomic_write(path, force=force,
-                                                         keep_suffix=True) as tmp:
+    with failing(written=path, errors=()), atomic_write(path, force=force, keep_suffix=True) as tmp:
         draw(tmp)
 
 

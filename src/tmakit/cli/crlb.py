@@ -1,7 +1,4 @@
-"""``tma crlb`` and ``tma gdop``: the Cramér-Rao lower bound of a file or a scenario, and its map.
-
-``tma gdop``: CEP50 and CEP90 of a stationary emitter over a grid, for a sensor layout.
-"""
+"""``tma crlb`` and ``tma gdop``: the Cramér-Rao lower bound of a file or a scenario; its map."""
 
 from __future__ import annotations
 
@@ -68,8 +65,7 @@ def crlb(
     check_units(units)
     if sensor_position_sigma is not None and not (math.isfinite(sensor_position_sigma)
                                                   and sensor_position_sigma >= 0):
-        raise fail(f"--sensor-position-sigma {sensor_position_sigma}: expected a distance "
-                   ">= 0 (m)")
+        raise fail(f"--sensor-position-sigma {sensor_position_sigma}: expected a distance >= 0 (m)")
     if at is not None and not math.isfinite(at):
         raise fail(f"--at {at}: expected a finite time (s)")
     source = sources[0]
@@ -101,7 +97,7 @@ def crlb(
                    "give a time near them (s)")
     print_bound(bound, derived, as_json, units, warnings)
     if loss is not None and not as_json:
-        out.print(loss, highlight=False)
+        out.print(loss)
 
 
 def with_sensor_errors(bound: Any, meas: Any, options: dict[str, Any], sigma: float
@@ -137,7 +133,7 @@ def bound_of_file(file: Path | list[Path], motion: str | None, ref_time: float |
     if meas.ambiguous_si is not None:  # a bound reads times and sigmas, not values
         err.print(f"note: the bound takes the side of the {int(meas.kind_mask('bearing').sum())}"
                   " towed-array cuts as known (resolved), turn cuts included; tma estimate "
-                  "resolves the sides", highlight=False, soft_wrap=True)
+                  "resolves the sides", soft_wrap=True)
     model = motion_or_fail(motion, ref_time, meas)
     values = parse_assignments(truth, "--truth")
     if not values and "truth" in meas.metadata and motion is None:
@@ -209,11 +205,11 @@ def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool,
             data["at"] = derived
         out.print_json(json.dumps(data, default=lambda x: None))
         return
-    out.print(bound.summary(), highlight=False)
-    out.print(f"trust: {trust.level}", highlight=False)
+    out.print(bound.summary())
+    out.print(f"trust: {trust.level}")
     print_warnings(list(warnings or []))
     if derived is not None:
-        out.print(f"at t = {derived['time']:g} s:", highlight=False)
+        out.print(f"at t = {derived['time']:g} s:")
         from ..results.answers import parameter_display
 
         for k, v in derived.items():  # course_deg is the JSON's copy of course, in degrees
@@ -226,10 +222,10 @@ def print_bound(bound: Any, derived: dict[str, Any] | None, as_json: bool,
                     value, sd_shown = value / scale, sd_shown / scale
                 out.print(f"  {k:<6} {value:14.6g}  std "
                           + (f"{sd_shown:.4g}" if sd is not None else "unobservable")
-                          + f" {unit}", highlight=False)
+                          + f" {unit}")
         e = derived["ellipse_90"]
         out.print(f"  90 % ellipse: semi-axes {e['major']:.4g} m x {e['minor']:.4g} m, "
-                  f"major axis bearing {e['bearing_deg']:.1f} deg", highlight=False)
+                  f"major axis bearing {e['bearing_deg']:.1f} deg")
 
 
 def gdop(
@@ -279,18 +275,17 @@ def gdop(
         return
     out.print(f"{scenario.name}: {points} x {points} emitter positions, east "
               f"{result.east[0]:.0f}..{result.east[-1]:.0f} m, north {result.north[0]:.0f}.."
-              f"{result.north[-1]:.0f} m, height {height:g} m (known)", highlight=False)
+              f"{result.north[-1]:.0f} m, height {height:g} m (known)")
     for name, stats in (("CEP50", summary["cep50_m"]), ("CEP90", summary["cep90_m"])):
         out.print(f"{name}: min {stats['min']:.4g} m, median {stats['median']:.4g} m, "
-                  f"max {stats['max']:.4g} m", highlight=False)
+                  f"max {stats['max']:.4g} m")
     if summary["unobservable_points"]:
-        out.print(f"{summary['unobservable_points']} points unobservable (no finite bound)",
-                  highlight=False)
+        out.print(f"{summary['unobservable_points']} points unobservable (no finite bound)")
     if result.ignored:
         out.print(f"not in the map: the {', '.join(result.ignored)} measurements (the map "
-                  "takes tdoa and fdoa)", highlight=False)
+                  "takes tdoa and fdoa)")
     if plot is not None:
-        out.print(f"wrote {plot}", highlight=False)
+        out.print(f"wrote {plot}")
 
 
 def _stats(values: object) -> dict[str, float]:

@@ -1,10 +1,4 @@
-"""``tma estimate`` and ``tma report``: the trajectory from a measurement file, and its answers.
-
-By maximum likelihood (``ml``, also for manoeuvring targets) or by one of the papers' methods.
-The answers table, the own-ship legs, the towed array's ambiguity, the solution page and the
-exports are laid out here (``tma track`` shares them); what they say is computed in
-:mod:`tmakit.results`.
-"""
+"""``tma estimate`` and ``tma report``; the answers, legs and exports that ``tma track`` shares."""
 
 from __future__ import annotations
 
@@ -230,8 +224,7 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
            dim: int | None = None, sensor_position_sigma: float | None = None) -> Any:
     """Return the fit the options ask for, as a function of the measurements."""
     if sensor_position_sigma is not None:
-        return sensor_error_fitter(meas, motion, ref_time, method, options,
-                                   sensor_position_sigma)
+        return sensor_error_fitter(meas, motion, ref_time, method, options, sensor_position_sigma)
     exact, criterion, alpha, accelerations = manoeuvre
     if dim not in (None, 2, 3):
         raise fail(f"--dim {dim}: expected 2 or 3")
@@ -260,8 +253,7 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
             if method == "ml":
                 from ..batch import estimate as run
 
-                return with_height(m, run(m, model, init=start, options=options), options,
-                                   dim)
+                return with_height(m, run(m, model, init=start, options=options), options, dim)
             from ..batch.methods import estimate_with
 
             return estimate_with(method, m, model, init=start, options=options)
@@ -315,8 +307,7 @@ def refit_scaled(meas: Any, result: Any, fit: Any, options: dict[str, Any]
     from ..results import normalised_residuals, scale_sigma
 
     with failing("--scale-sigma: "):
-        scaled, factors = scale_sigma(meas, normalised_residuals(result, meas, options),
-                                      result.dof)
+        scaled, factors = scale_sigma(meas, normalised_residuals(result, meas, options), result.dof)
     return scaled, fit(scaled), factors
 
 
@@ -353,12 +344,11 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
         out.print_json(result.to_json(meas, None, answer=answer, warnings=warnings,
                                       sigma_scale=factors))
     else:
-        out.print(result.summary(units), highlight=False)
+        out.print(result.summary(units))
         if factors is not None:
             out.print("--scale-sigma: sigma multiplied by " + ", ".join(
                 f"{f:.3g} ({k})" for k, f in factors.items()) + " from the first fit's "
-                "residuals; the estimate and covariance above are of the refit",
-                highlight=False)
+                "residuals; the estimate and covariance above are of the refit")
         if shown is not None:
             print_answers(shown, units, meas,
                           None if trust.answer else "what the data determine (no answer: "
@@ -366,8 +356,7 @@ def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
         out.print(f"trust: {trust.level}" + ("" if trust.level == "ok" else
                                              f" ({len(trust.reasons)} reason"
                                              f"{'s' if len(trust.reasons) > 1 else ''}: "
-                                             + ", ".join(r.code for r in trust.reasons) + ")"),
-                  highlight=False)
+                                             + ", ".join(r.code for r in trust.reasons) + ")"))
         print_solutions(result, meas, units)
         print_legs(meas, result, units)
     print_warnings(warnings)
@@ -390,7 +379,7 @@ def draw_solution(meas: Any, result: Any, answer: Any, plot: tuple[Path | None, 
     plot_solution(meas, result, path, residuals=normalised_residuals(result, meas, options),
                   answer=answer, title=f"{file}: {result.method} estimate, {result.motion.name}",
                   units=units)
-    say.print(f"wrote {path}", highlight=False)
+    say.print(f"wrote {path}")
 
 
 SPEED_UNITS = {"si": ("m/s", 1.0), "nautical": ("kn", 1852.0 / 3600.0)}
@@ -423,8 +412,7 @@ def parse_time(text: str | None, meas: Any, option: str) -> float | None:
         if not bad[0]:
             origin_ns = int(stamps[0])
             if len(meas):
-                span = tuple(origin_ns + round(float(f(meas.time)) * 1e9)
-                             for f in (np.min, np.max))
+                span = tuple(origin_ns + round(float(f(meas.time)) * 1e9) for f in (np.min, np.max))
     with failing():
         return seconds_of_time_text(text, option, origin_ns, span)  # type: ignore[arg-type]
 
@@ -522,10 +510,10 @@ def print_answers(a: Any, units: str, meas: Any = None, title: str | None = None
             f"{a.ellipse.level if a.ellipse else 0.95:.0%} probability (chi-square, 2 dof)")
     if a.dim == 2:
         note += "; range is horizontal (2-D motion)"
-    out.print(note, highlight=False)
+    out.print(note)
     frame = frame_note(meas)
     if frame is not None:
-        out.print(frame, highlight=False)
+        out.print(frame)
 
 
 def print_solutions(result: Any, meas: Any, units: str) -> None:
@@ -565,13 +553,13 @@ def print_solutions(result: Any, meas: Any, units: str) -> None:
     print_wide(table)
     out.print("solutions: LR = chi2 - chi2 of the first (0 when lower); p = P(chi2 with the "
               "first fit's unknowns as degrees of freedom >= LR); the truth may lie in any "
-              "of their ellipses", highlight=False)
+              "of their ellipses")
 
 
 def print_warnings(warnings: list[Any]) -> None:
     """Print each sanity warning on standard error as ``warning: ...``."""
     for w in warnings:
-        err.print(f"[bold yellow]warning:[/] {w.message}", highlight=False, soft_wrap=True)
+        err.print(f"[bold yellow]warning:[/] {w.message}", soft_wrap=True)
 
 
 def answer_or_fail(source: Any, meas: Any, sensor: str | None, **where: Any) -> Any:
@@ -619,8 +607,7 @@ def leg_window(meas: Any, leg: int | None, start: str | None, stop: str | None, 
     ends_start = [g.start for g in legs.legs]
     ends_stop = [g.stop for g in legs.legs]
 
-    def snapped(text: str | None, option: str, ends: list[float], other: list[float]
-                ) -> str | None:
+    def snapped(text: str | None, option: str, ends: list[float], other: list[float]) -> str | None:
         t = parse_time(text, meas, option)
         if t is None:
             return None
@@ -660,7 +647,7 @@ def print_legs(meas: Any, result: Any, units: str) -> None:
     lines = (legs_lines(meas, legs, units) if legs else []) + (
         contact_legs_lines(meas, target, units) if target else [])
     for line in lines:
-        out.print(line, highlight=False, soft_wrap=True)
+        out.print(line, soft_wrap=True)
 
 
 def contact_legs_lines(meas: Any, legs: list[dict[str, Any]], units: str) -> list[str]:
@@ -686,7 +673,7 @@ def fit_with_ambiguity(meas: Any, fit: Any,
     if meas.ambiguous_si is None or not np.any(~np.isnan(meas.ambiguous_si)):
         if keep_turn_cuts or settle is not None:
             err.print("note: --keep-turn-cuts/--settle apply to towed-array cuts with a second, "
-                      "ambiguous bearing; these data have none", highlight=False)
+                      "ambiguous bearing; these data have none")
         return fit(meas), meas
     from ..batch.ambiguity import SETTLE_S, resolve_ambiguity
     from ..results.own_legs import TURN_RATE_DEG_S
@@ -698,7 +685,7 @@ def fit_with_ambiguity(meas: Any, fit: Any,
                                 else turn_rate, legs=legs)
     say = err if as_json else out
     for line in amb.lines(meas):
-        say.print(line, highlight=False, soft_wrap=True)
+        say.print(line, soft_wrap=True)
     return amb.result, amb.measurements
 
 
@@ -713,11 +700,11 @@ def sides_for_filter(meas: Any, dim: int) -> Any:
     with failing():
         amb = resolve_ambiguity(meas, f"cv{dim}d")
     for line in amb.lines(meas):
-        err.print(line, highlight=False, soft_wrap=True)
+        err.print(line, soft_wrap=True)
     if not amb.resolved:
         err.print("note: a filter follows one bearing per cut: the track takes the best fit's "
                   "side of each unresolved leg, and the mirror track fits about as well (tma "
-                  "estimate reports both)", highlight=False, soft_wrap=True)
+                  "estimate reports both)", soft_wrap=True)
     return amb.measurements
 
 
@@ -763,12 +750,6 @@ def check_solution_outputs(html: Path | None, exports: list[Path] | None, force:
                            options=dict(options or {}))
 
 
-def check_page(html: Path | None, force: bool, inputs: list[Path], plot: Path | None
-               ) -> Path | None:
-    """Check ``--html`` alone (``tma track``): :func:`check_solution_outputs` without exports."""
-    return check_solution_outputs(html, None, force, inputs, taken=[plot]).html
-
-
 def write_solution_outputs(meas: Any, result: Any, outputs: SolutionOutputs, answers: bool,
                            say: Any) -> None:
     """Write the page and the exports; say what was written (or why an export was not)."""
@@ -778,13 +759,11 @@ def write_solution_outputs(meas: Any, result: Any, outputs: SolutionOutputs, ans
         title = f"{outputs.title}: {result.method} estimate, {result.motion.name}"
         write_picture(outputs.html, outputs.force, lambda tmp: write_solution_page(
             meas, result, tmp, options=outputs.options, title=title))
-        say.print(f"wrote {outputs.html} (open it in a browser: no network needed)",
-                  highlight=False, soft_wrap=True)
+        say.print(f"wrote {outputs.html} (open it in a browser: no network needed)", soft_wrap=True)
     if not outputs.exports:
         return
     if not answers:
-        say.print(f"not written: {', '.join(map(str, outputs.exports))}: the estimate is no "
-                  "answer", highlight=False)
+        say.print(f"not written: {', '.join(map(str, outputs.exports))}: the estimate is no answer")
         return
     from ..io.solution_files import write_solution
 
@@ -793,7 +772,7 @@ def write_solution_outputs(meas: Any, result: Any, outputs: SolutionOutputs, ans
             write_solution(path, meas, result, every=outputs.every,
                            range_bearing=outputs.range_bearing, name=outputs.name,
                            force=outputs.force)
-        say.print(f"wrote {path}", highlight=False, soft_wrap=True)
+        say.print(f"wrote {path}", soft_wrap=True)
 
 
 def report(**arguments: Any) -> None:

@@ -1,10 +1,6 @@
-"""No traceback reaches a user of ``tma``: the guard around every command.
+"""No traceback reaches a user of ``tma``: the guard around every command, and its exit statuses.
 
-An exception a command did not turn into an ``error: ...`` message becomes one line naming the
-command and the failure, with exit status :data:`EXIT_INTERNAL`, its traceback in a log file
-(``tma --debug`` or ``TMA_DEBUG=1`` lets it through).  Ctrl-C exits with 130, SIGTERM with 143,
-after the files being written are cleaned up; unwritable output ends with status 1
-(:func:`write_failed`).  Nothing numerical is imported here.
+Nothing numerical is imported here.
 """
 
 from __future__ import annotations
@@ -113,12 +109,12 @@ def _report(exc: BaseException, command: str, caught: list[warnings.WarningMessa
         except OSError:
             hint = "please report; rerun with tma --debug for the traceback"
     err.print(f"[bold red]error:[/] internal error in `tma {command}`{what}: {message} "
-              f"({hint})", highlight=False, markup=True, soft_wrap=True)
+              f"({hint})", markup=True, soft_wrap=True)
     return EXIT_INTERNAL
 
 
 def _interrupted(code: int, why: str) -> int:
-    err.print(f"[bold red]{why}[/]", highlight=False, markup=True)
+    err.print(f"[bold red]{why}[/]", markup=True)
     return code
 
 
@@ -165,8 +161,7 @@ def guarded(command: Callable[..., Any]) -> Callable[..., Any]:
             raise typer.Exit(write_failed(exc, command.__name__)) from None
         except MemoryError:
             err.print(f"[bold red]error:[/] `tma {command.__name__}` ran out of memory; ask "
-                      "for less work (fewer runs, rows or particles)", highlight=False,
-                      markup=True, soft_wrap=True)
+                      "for less work (fewer runs, rows or particles)", markup=True, soft_wrap=True)
             raise typer.Exit(EXIT_BAD_INPUT) from None
         except Exception as exc:  # the point: nothing escapes as a traceback
             if _state["debug"]:  # tma --debug: the exception itself, traceback and all

@@ -1,10 +1,4 @@
-"""File commands: ``tma scenarios``, ``simulate``, ``show``, ``demo``, ``import``, ``examples``.
-
-The built-in scenarios and their simulated measurement files; a file's summary and picture; real
-logs (Debrief, a wide CSV/Parquet log with its column mapping, GPX/NMEA own track with a
-measurement log) into tmakit's measurement file, its metadata keeping the clock time of t = 0
-and the ENU origin; and the sample logs.
-"""
+"""File commands: ``tma scenarios``, ``simulate``, ``show``, ``demo``, ``import``, ``examples``."""
 
 from __future__ import annotations
 
@@ -143,7 +137,7 @@ def simulate(
     write_or_fail(meas, output, force)
     out.print(f"wrote {len(meas)} measurements of {scn.name} to {output}"
               + (f" (seed {seed})" if seed is not None else "")
-              + (" without noise" if no_noise else ""), highlight=False)
+              + (" without noise" if no_noise else ""))
 
 
 def simulate_or_fail(scn: Any, seed: int | None, noise: bool) -> Any:
@@ -178,7 +172,7 @@ def show(
     print_wide(summary_table(meas, title))
     out.print(describe_sensors(meas))
     if "truth" in meta:
-        out.print(f"truth ({meta.get('motion', '?')}): {truth_text(meta)}", highlight=False)
+        out.print(f"truth ({meta.get('motion', '?')}): {truth_text(meta)}")
     if "time_origin" in meta:  # a real log: its clock time and frame
         print_import(meas, None)
     from ..results import measurement_warnings
@@ -189,7 +183,7 @@ def show(
         from ..plot.tracks import plot_measurements
 
         write_picture(plot, force, lambda tmp: plot_measurements(meas, tmp, title=title))
-        out.print(f"wrote {plot}", highlight=False)
+        out.print(f"wrote {plot}")
 
 
 #: The file that marks a folder as written by ``tma demo`` (so that a re-run may replace it).
@@ -212,10 +206,10 @@ def demo(
     csv = out_dir / "gu2007.csv"
     png = out_dir / "gu2007.png"
     scn = load_scenario_or_fail("gu2007")
-    out.print(scn.summary(), highlight=False)
+    out.print(scn.summary())
     meas = scn.simulate(rng=seed)
     write_or_fail(meas, csv, force=True)
-    out.print(f"wrote {csv}", highlight=False)
+    out.print(f"wrote {csv}")
     show([csv], plot=png, origin=None, force=True)
 
 
@@ -259,8 +253,7 @@ def _mapping(mapping: Path | None, map_text: str | None, measure: list[str] | No
     if map_text is None and not measure:
         return mapping
     if mapping is not None:
-        raise fail("give the column mapping as --mapping FILE.toml or as --map/--measure, "
-                   "not both")
+        raise fail("give the column mapping as --mapping FILE.toml or as --map/--measure, not both")
     from ..io.log_mapping import MappingError, mapping_from_text
 
     try:
@@ -315,8 +308,7 @@ def import_(
         raise fail("give the measurement file to write: -o obs.parquet (or --guess to "
                    "propose a mapping)")
     if IMPORT_FORMATS[fmt] and len(files) != IMPORT_FORMATS[fmt]:
-        what = ("the own track and the measurement log" if IMPORT_FORMATS[fmt] == 2
-                else "one file")
+        what = ("the own track and the measurement log" if IMPORT_FORMATS[fmt] == 2 else "one file")
         raise fail(f"import {fmt} takes {what}; got {len(files)} file(s)")
     if dim not in (None, 2, 3):
         raise fail(f"--dim {dim}: expected 2 or 3")
@@ -361,36 +353,32 @@ def print_import(meas: Any, output: Path | None) -> None:
     counts = ", ".join(f"{r['count']} {r['kind']} ({r['unit']}) from {r['sensor']}"
                        for r in meas.summary_rows())
     if output is not None:
-        out.print(f"wrote {output}: {len(meas)} measurements: {counts}", highlight=False,
-                  soft_wrap=True)
+        out.print(f"wrote {output}: {len(meas)} measurements: {counts}", soft_wrap=True)
     if "source" in meta:
-        out.print(f"  source: {meta['source']}", highlight=False, soft_wrap=True)
+        out.print(f"  source: {meta['source']}", soft_wrap=True)
     if "duplicates_merged" in meta:
         out.print(f"  note: {meta['duplicates_merged']} rows repeated an earlier row (same "
-                  "sensor, kind, time, value and sigma) and were merged into it",
-                  highlight=False, soft_wrap=True)
+                  "sensor, kind, time, value and sigma) and were merged into it", soft_wrap=True)
     if "time_origin" in meta:
         out.print(f"  t = 0 s is {meta['time_origin']} (UTC); the data span "
-                  f"{meas.time.min():g} .. {meas.time.max():g} s", highlight=False)
+                  f"{meas.time.min():g} .. {meas.time.max():g} s")
     if "origin_lat" in meta:
         out.print(f"  ENU origin: lat {float(meta['origin_lat']):.7f} deg, lon "
                   f"{float(meta['origin_lon']):.7f} deg, alt {float(meta['origin_alt']):.1f} m "
                   f"({meta.get('altitude_reference', 'ellipsoid')})"
-                  + (f", {meta['origin_source']}" if "origin_source" in meta else ""),
-                  highlight=False)
+                  + (f", {meta['origin_source']}" if "origin_source" in meta else ""))
     for key, label in (("dim_rule", "frame"), ("velocity_source", "sensor velocity")):
         if key in meta:
-            out.print(f"  {label}: {meta[key]}", highlight=False, soft_wrap=True)
+            out.print(f"  {label}: {meta[key]}", soft_wrap=True)
     if "bearing_sigma_deg" in meta:
-        out.print("  " + _replay_sigmas(meta, set(meas.kinds)), highlight=False, soft_wrap=True)
+        out.print("  " + _replay_sigmas(meta, set(meas.kinds)), soft_wrap=True)
     if output is not None and meas.ambiguous_si is not None:
         import numpy as np
 
         out.print(f"  note: the {int((~np.isnan(meas.ambiguous_si)).sum())} ambiguous twin "
                   "bearings (a towed array's mirror) are not written: a measurement file has "
                   "no column for them, and the first bearing of each cut is kept; resolve the "
-                  "side from the log itself (tma estimate LOG...)", highlight=False,
-                  soft_wrap=True)
+                  "side from the log itself (tma estimate LOG...)", soft_wrap=True)
 
 
 def _replay_sigmas(meta: dict[str, str], kinds: set[str]) -> str:
@@ -430,5 +418,4 @@ def examples(
         data = (resources.files("tmakit") / "examples" / name).read_bytes()
         with atomic_write(target, force=force) as tmp:
             Path(tmp).write_bytes(data)
-    out.print(f"wrote {len(targets)} sample logs to {folder}: {', '.join(EXAMPLE_FILES)}",
-              highlight=False)
+    out.print(f"wrote {len(targets)} sample logs to {folder}: {', '.join(EXAMPLE_FILES)}")

@@ -1,10 +1,4 @@
-"""The commands that run many simulations: ``tma montecarlo``, ``tma reproduce`` and ``tma plan``.
-
-``tma montecarlo`` compares a scenario's RMSE with the CRLB; ``tma reproduce`` sets a paper's
-tables and figures next to its own numbers; ``tma plan`` steers a scenario's sensor by the
-predicted PCRB in the closed loop (its ``[planning]`` table, docs/planning.md), beside the fixed
-pattern, and writes the per-step table (flown path, truth, estimates, bound).
-"""
+"""The commands that run many simulations: ``tma montecarlo``, ``reproduce`` and ``plan``."""
 
 from __future__ import annotations
 
@@ -60,8 +54,7 @@ def montecarlo(
         "raise it for a larger study)")] = MAX_RUNS,
 ) -> None:
     """Simulate and estimate a scenario many times; compare the RMSE with the CRLB."""
-    partial = None if output is None else output.with_name(
-        f"{output.stem}.partial{output.suffix}")
+    partial = None if output is None else output.with_name(f"{output.stem}.partial{output.suffix}")
     output, json_file, partial = check_outputs(
         [("-o", output, "table"), ("--json", json_file, "json"),
          ("-o (partial results)", partial, "table")], force)
@@ -96,32 +89,30 @@ def _study(scn: Any, partial: Path | None, **options: Any) -> Any:
         raise
 
 
-def _write_results(res: Any, output: Path | None, json_file: Path | None,
-                   force: bool) -> None:
+def _write_results(res: Any, output: Path | None, json_file: Path | None, force: bool) -> None:
     """Write the table and the JSON; a file that appeared meanwhile: the results go beside it."""
-    from ..io import atomic_write
-    from ..io.tables import write_study_table
+    from ..io import atomic_write, write_table
 
     def write_json(path: Path, force: bool) -> None:
         with atomic_write(path, force=force) as tmp:
             tmp.write_text(res.to_json() + "\n")
 
-    def write_table(path: Path, force: bool) -> None:
-        write_study_table(res, path, force=force)
+    def write_runs(path: Path, force: bool) -> None:
+        write_table(path, res.table, force=force, what="the per-run table")
 
     lost = False
-    for path, write in ((output, write_table), (json_file, write_json)):
+    for path, write in ((output, write_runs), (json_file, write_json)):
         if path is None:
             continue
         try:
             write(path, force)
-            out.print(f"wrote {path}", highlight=False)
+            out.print(f"wrote {path}")
         except FileExistsError:  # written by another program while the study ran
             elsewhere = path.with_name(f"{path.stem}.{os.getpid()}{path.suffix}")
             write(elsewhere, False)
             err.print(f"error: {path} appeared while the study ran (another program wrote "
                       f"it); nothing was written over: the results are in {elsewhere}",
-                      highlight=False, soft_wrap=True)
+                      soft_wrap=True)
             lost = True
     if lost:
         raise typer.Exit(1)
@@ -136,7 +127,7 @@ def save_partial(finished: list[Any], scn: Any, partial: Path | None) -> None:
 
     table = finished_runs_table(finished, scn.motion.param_names)
     write_table(partial, table, force=True, what="the finished runs")
-    err.print(f"saved the {len(table)} finished runs to {partial}", highlight=False)
+    err.print(f"saved the {len(table)} finished runs to {partial}")
 
 
 def print_study_summary(res: Any) -> None:
@@ -149,8 +140,7 @@ def print_study_summary(res: Any) -> None:
                   title_justify="left")
     from ..results.answers import parameter_display
 
-    for col in ("parameter", "unit", "truth", "bias", "RMSE", "CRLB", "RMSE/CRLB",
-                "95 % interval"):
+    for col in ("parameter", "unit", "truth", "bias", "RMSE", "CRLB", "RMSE/CRLB", "95 % interval"):
         table.add_column(col, justify="left" if col in ("parameter", "unit") else "right")
     for r in res.summary_table():
         # The unit shown for the parameter (angles in degrees); bias, RMSE, CRLB scale with it.
@@ -160,7 +150,7 @@ def print_study_summary(res: Any) -> None:
                       f"{r['ratio_low']:.3f} .. {r['ratio_high']:.3f}")
     print_wide(table)
     out.print(f"converged {res.convergence_rate:.1%} ({counts}); {res.wall_time:.1f} s, "
-              f"{res.runs_per_second:.1f} runs/s ({res.executor})", highlight=False)
+              f"{res.runs_per_second:.1f} runs/s ({res.executor})")
 
 
 def reproduce(
@@ -241,7 +231,7 @@ def reproduce(
     print_report(rep)
     for path in (plot, output):
         if path is not None:
-            out.print(f"wrote {path}", highlight=False)
+            out.print(f"wrote {path}")
 
 
 def _extra_options(name: str, module: Any, **given: Any) -> dict[str, Any]:
@@ -290,7 +280,7 @@ def print_report(rep: Any) -> None:
             table.add_row(*(f"{v:.10g}" if isinstance(v, float) else str(v) for v in row))
         out.print(table)
         if section.note:
-            out.print(section.note, highlight=False)
+            out.print(section.note)
     for key, value in (rep.figures.items() if rep.print_figures else ()):
         labels = getattr(rep, "labels", {}).get(key)
         if labels and isinstance(value, list) and len(value) == len(labels):
@@ -298,11 +288,10 @@ def print_report(rep: Any) -> None:
                              for (n, u), v in zip(labels, value, strict=True))
         else:
             text = plain(value)
-        out.print(f"{key.replace('_', ' ')}: {text}", highlight=False)
+        out.print(f"{key.replace('_', ' ')}: {text}")
 
 
-def with_unit_column(header: list[str], rows: list[list[Any]]
-                     ) -> tuple[list[str], list[list[Any]]]:
+def with_unit_column(header: list[str], rows: list[list[Any]]) -> tuple[list[str], list[list[Any]]]:
     """Add a ``unit`` column after a ``parameter`` column that has none (printed tables only)."""
     from ..results.answers import parameter_display
 
@@ -376,7 +365,7 @@ def plan(
                        f"{tracker or setup.tracker} tracker "
                        f"{'given by --tracker' if tracker else 'of ' + str(scenario)}")
         for warning in start_warnings(setup):
-            err.print(f"warning: {escape(warning)}", highlight=False)
+            err.print(f"warning: {escape(warning)}")
         from ..montecarlo.planned import plan as run_plan
 
         result = run_plan(setup, runs=runs, rng=seed, duration=duration,
@@ -397,7 +386,7 @@ def plan(
     else:
         print_plan_summary(result, seed)
     for warning in result.warnings():
-        err.print(f"warning: {escape(warning)}", highlight=False)
+        err.print(f"warning: {escape(warning)}")
     write_outputs(result, output, plot, force, err if as_json else out)
 
 
@@ -440,12 +429,12 @@ def write_outputs(result: Any, output: Path | None, plot: Path | None, force: bo
         from ..io.tables import write_table
 
         write_table(output, result.table(), force=force, what="the per-step table")
-        console.print(f"wrote {output}", highlight=False)
+        console.print(f"wrote {output}")
     if plot is not None:
         from ..plot.tracks import plot_plan
 
         write_picture(plot, force, lambda tmp: plot_plan(result, tmp))
-        console.print(f"wrote {plot}", highlight=False)
+        console.print(f"wrote {plot}")
 
 
 def print_plan_summary(result: Any, seed: int) -> None:
@@ -486,18 +475,17 @@ def print_plan_summary(result: Any, seed: int) -> None:
     p = s.planner
     constraints = ", ".join(c.name + (" (hard)" if c.hard else " (penalty)")
                             for c in p.constraints) or "none"
-    out.print(f"planned path: {describe(s)}; constraints: {constraints}", highlight=False)
+    out.print(f"planned path: {describe(s)}; constraints: {constraints}")
     out.print("bound: the posterior CRB at the true target along the flown paths (Gamma the "
               "mean over the runs, the tracker's prior and process noise); RMSE / bound with "
               "its 95 % Monte Carlo interval. Planning criterion: what the planner believed "
-              "(Gamma over the tracker's cloud), not a bound.", highlight=False)
+              "(Gamma over the tracker's cloud), not a bound.")
     found = result.comparison()
     if found is None:
-        out.print(f"fixed pattern: none ({result.fixed_note})", highlight=False)
+        out.print(f"fixed pattern: none ({result.fixed_note})")
     else:
         out.print(f"planned / fixed final RMSE: {found['planned_over_fixed']:.3f}"
-                  f"{interval(found['low'], found['high'])}, same seeds: {found['verdict']}",
-                  highlight=False)
+                  f"{interval(found['low'], found['high'])}, same seeds: {found['verdict']}")
 
 
 def interval(low: float | None, high: float | None) -> str:

@@ -1,9 +1,4 @@
-"""``tma track``: a recursive filter's state and covariance after every update.
-
-Its options (parsed and checked before the file is read, library errors put in the words of the
-flags that would fix them), its table, JSON, file and picture, and ``--follow`` (a live watch of
-growing files).
-"""
+"""``tma track``: a recursive filter's state and covariance after every update; ``--follow``."""
 
 from __future__ import annotations
 
@@ -49,7 +44,7 @@ from .estimate import (
     SolutionOutputs,
     UnitsOption,
     answer_or_fail,
-    check_page,
+    check_solution_outputs,
     check_units,
     print_answers,
     print_warnings,
@@ -162,7 +157,7 @@ def track(
     output, plot = check_track_options(output, plot, force, filter_name, particles, seed,
                                        ellipses, rows, (*files, logs["mapping"]))
     check_units(units)
-    page = check_page(html, force, [*files], plot)
+    page = check_solution_outputs(html, None, force, [*files], taken=[plot]).html
     reading = (parse_origin(origin), dim, reader_options(**logs))
     options = model_options(drift, free_exponent, propagation_speed)
     tracked = partial(track_files, reading=reading, q=(q, q_density), filter_name=filter_name,
@@ -227,10 +222,9 @@ def write_track_page(meas: Any, tr: Any, path: Path, force: bool, options: dict[
 
     dim = len(tr.state_names) // 2
     try:
-        result = run(meas, ConstantVelocity(dim, ref_time=float(meas.time.max())),
-                     options=options)
+        result = run(meas, ConstantVelocity(dim, ref_time=float(meas.time.max())), options=options)
     except ValueError as e:
-        say.print(f"--html: not written: the batch estimate failed ({e})", highlight=False)
+        say.print(f"--html: not written: the batch estimate failed ({e})")
         return
     write_solution_outputs(meas, result, SolutionOutputs(
         html=path, force=force, options=options,
@@ -258,10 +252,12 @@ class Watch:
         except typer.Exit as e:
             if e.exit_code != 2:
                 raise
-            err.print("waiting for more data", highlight=False)
+            err.print("waiting for more data")
             return False
         self.count += 1
         answer = answer_or_fail(tr, meas, self.sensor)
+        from ..results import measurement_warnings
+
         trust = track_trust(tr, measurement_warnings(meas))
         if self.as_json:
             import json
@@ -270,7 +266,7 @@ class Watch:
                                    "answer": answer.as_dict(), **trust.as_dict()}))
         else:
             out.print(update_line(self.count, len(meas), answer, trust.level, self.units),
-                      highlight=False, soft_wrap=True)
+                      soft_wrap=True)
         write_track_outputs(self.name, meas, tr, truth, self.output, self.plot,
                             self.ellipses, self.force or self.count > 1, self.say)
         if self.page is not None:
@@ -318,6 +314,7 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
     import json
 
     from .. import tracking
+    from ..results import measurement_warnings
 
     warnings = measurement_warnings(meas)
     trust = track_trust(tr, warnings)
@@ -327,7 +324,7 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
     else:
         print_track(tr, truth, rows, meas, units)
         print_answers(answer, units, meas)
-        out.print(f"trust: {trust.level}", highlight=False)
+        out.print(f"trust: {trust.level}")
     print_warnings([r for r in trust.reasons if r.code == "held-nuisance"] + warnings)
 
 
@@ -350,13 +347,6 @@ def track_trust(tr: Any, warnings: list[Any]) -> Any:
     return Trust(TRUST_WARNING if reasons else TRUST_OK, reasons)
 
 
-def measurement_warnings(meas: Any) -> list[Any]:
-    """Return the sanity warnings about the measurements (radians, far sensors)."""
-    from ..results import measurement_warnings as check
-
-    return check(meas)
-
-
 def write_track_outputs(file: Path, meas: Any, tr: Any, truth: Any, output: Path | None,
                         plot: Path | None, ellipses: int, force: bool, say: Any) -> None:
     """Write the track table (``-o``) and picture (``--plot``), and say so."""
@@ -366,19 +356,18 @@ def write_track_outputs(file: Path, meas: Any, tr: Any, truth: Any, output: Path
     if output is not None:
         with failing(written=output, errors=()):
             write_track(tr, output, force=force)
-        say.print(f"wrote {output}", highlight=False)
+        say.print(f"wrote {output}")
     if plot is not None:
         from ..plot.tracks import plot_track
 
-        bound, note = (tracking.track_pcrb(meas, tr, truth) if truth is not None
-                       else (None, ""))
+        bound, note = (tracking.track_pcrb(meas, tr, truth) if truth is not None else (None, ""))
         title = f"{file}: {tr.filter_name} track"
         if "scenario" in meas.metadata:
             title += f" of scenario {meas.metadata['scenario']}"
         write_picture(plot, force, lambda tmp: plot_track(
             tr, meas, tmp, truth=truth, pcrb=bound, pcrb_note=note, ellipses=ellipses,
             title=title))
-        say.print(f"wrote {plot}", highlight=False)
+        say.print(f"wrote {plot}")
 
 
 def start_sentence(tr: Any) -> str:
@@ -419,8 +408,7 @@ def start_sentence(tr: Any) -> str:
     return text
 
 
-def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None,
-                units: str = "si") -> None:
+def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None, units: str = "si") -> None:
     """Print the track's summary table (``n_rows`` rows spread over it) and its checks."""
     import numpy as np
     from rich.table import Table  # (loaded where a table is made: not for --help)
@@ -459,9 +447,8 @@ def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None,
             row.append(f"{np.linalg.norm(tr.states[k, :dim] - truth[k, :dim]):.1f}")
         table.add_row(*row)
     print_wide(table)
-    out.print("std: position RMS std sqrt(trace P); NIS: normalised innovation squared",
-              highlight=False)
-    out.print(start_sentence(tr), highlight=False)
+    out.print("std: position RMS std sqrt(trace P); NIS: normalised innovation squared")
+    out.print(start_sentence(tr))
     print_track_checks(tr, truth, dim)
 
 
@@ -490,10 +477,10 @@ def print_track_checks(tr: Any, truth: Any, dim: int) -> None:
         mean_nis = float(np.sum(tr.nis[used]) / np.sum(tr.dof[used]))
         out.print(f"{int(np.sum(used))} updates, mean NIS per degree of freedom "
                   f"{mean_nis:.3f} (1 when consistent), log-likelihood "
-                  f"{tr.log_likelihood[-1]:.2f}", highlight=False)
+                  f"{tr.log_likelihood[-1]:.2f}")
         verdict = nis_verdict(float(np.sum(tr.nis[used])), int(np.sum(tr.dof[used])))
         if verdict:
-            err.print(f"warning: {verdict}", highlight=False)
+            err.print(f"warning: {verdict}")
     if truth is not None:
         e = tr.states[-1, :dim] - truth[-1, :dim]
         cov = tr.covariances[-1, :dim, :dim]
@@ -503,7 +490,7 @@ def print_track_checks(tr: Any, truth: Any, dim: int) -> None:
         except np.linalg.LinAlgError:
             sigma = "the final covariance is singular (a collapsed cloud or track)"
         out.print(f"truth known (file metadata): final position error "
-                  f"{np.linalg.norm(e):.1f} m, {sigma}", highlight=False)
+                  f"{np.linalg.norm(e):.1f} m, {sigma}")
 
 
 def parse_q(text: str, dim: int, flag: str = "--q") -> list[float]:
@@ -542,16 +529,14 @@ def parse_bearing_prior(range_prior: str | None, speed_prior: float | None,
     given = tuple(n for n, v in (("range", range_prior), ("speed", speed_prior),
                                  ("height", height_prior)) if v is not None)
     lo, hi = DEFAULT_RANGE if range_prior is None else _interval(range_prior, "--range-prior")
-    height = DEFAULT_HEIGHT if height_prior is None else _interval(height_prior,
-                                                                   "--height-prior")
+    height = DEFAULT_HEIGHT if height_prior is None else _interval(height_prior, "--height-prior")
     if not (0 < lo < hi):
         raise fail(f"--range-prior {range_prior!r}: expected 0 < MIN < MAX (m)")
     if height[0] > height[1]:
         raise fail(f"--height-prior {height_prior!r}: expected MIN <= MAX (m)")
     speed = DEFAULT_SPEED if speed_prior is None else float(speed_prior)
     if not (speed > 0 and speed < 1e4):
-        raise fail(f"--speed-prior {speed_prior}: expected a speed > 0 m/s (and below "
-                   "10 km/s)")
+        raise fail(f"--speed-prior {speed_prior}: expected a speed > 0 m/s (and below 10 km/s)")
     return BearingPrior(lo, hi, speed, height, given)
 
 
@@ -567,8 +552,7 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
         raise fail("--model-q, --transition and --turn-rate apply only to --filter imm and mmpf")
     if filter_name not in ("gsf", "imm"):
         if component != "ekf":
-            raise fail("--component applies only to --filter gsf and imm (their component "
-                       "filter)")
+            raise fail("--component applies only to --filter gsf and imm (their component filter)")
         if filter_name != "mmpf":
             return {"history": True} if smooth and filter_name == "pf" else {}
     out: dict[str, object] = {} if filter_name == "mmpf" else {"component": component}
@@ -627,8 +611,7 @@ def tracking_failure(e: Any) -> typer.Exit:
 
     names = dict(TRACK_FLAGS)
     if isinstance(e, MissingNuisanceError):
-        names["nuisance"] = ("nuisance={...}; --nuisance "
-                             + ",".join(f"{n}=..." for n in e.names))
+        names["nuisance"] = ("nuisance={...}; --nuisance " + ",".join(f"{n}=..." for n in e.names))
     return fail(e.render(names))
 
 
@@ -694,8 +677,7 @@ class _Source:
         self.lines: queue.Queue[bytes | None] | None = None
         if str(path) == "-":
             self.lines = queue.Queue()
-            threading.Thread(target=self._read_stdin, args=(sys.stdin.buffer,),
-                             daemon=True).start()
+            threading.Thread(target=self._read_stdin, args=(sys.stdin.buffer,), daemon=True).start()
         snapshot.write_bytes(b"")
 
     def _read_stdin(self, stream: BinaryIO) -> None:
@@ -807,11 +789,10 @@ def watch(paths: list[Path], fmt: str | None, update: Callable[[list[Path]], boo
                 if growing.poll():
                     updates += bool(update(growing.snapshots))
                 elif growing.ended:
-                    say.print(f"standard input ended: {updates} update(s)", highlight=False)
+                    say.print(f"standard input ended: {updates} update(s)")
                     break
                 else:
                     time.sleep(interval)
         except (KeyboardInterrupt, Terminated):
-            say.print(f"stopped after {updates} complete update(s); the files written are "
-                      "kept", highlight=False)
+            say.print(f"stopped after {updates} complete update(s); the files written are kept")
             raise

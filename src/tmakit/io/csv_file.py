@@ -1,10 +1,7 @@
 """The CSV measurement file: ``# key: value`` metadata lines, a header, one row per value.
 
-pyarrow's CSV reader parses it either streamed (:func:`stream_csv`: block by block into the set's
-arrays, about 93 bytes a row, :data:`SET_BYTES_PER_ROW`) or, when the stream does not take the
-file (any bad cell, a missing column, ...), as a table of cells for the checker
-(:func:`load_csv`) that names every problem; both give the same set bit for bit.  Writing uses
-shortest round-trip floats, so files round-trip exactly.
+A valid file is streamed into the set's arrays (:func:`stream_csv`); any other is read as a table
+of cells for the checker (:func:`load_csv`), which names every problem: the same set bit for bit.
 """
 
 from __future__ import annotations
@@ -27,11 +24,22 @@ from ..data import REF_STATE_COLUMNS, MeasurementSet
 from ..measurements import KINDS
 from ..measurements.codes import KIND_CODES, KIND_NAMES
 from ..rules import GEO_RANGES, geo_within
-from .checker import check_columns, check_table
-from .contract import COLUMN_ORDER, FORMAT_LINE, NUMERIC_COLUMNS, Problems, RawTable, file_columns
+from .checker import (
+    COLUMN_ORDER,
+    FORMAT_LINE,
+    NUMERIC_COLUMNS,
+    QUERY_ROWS,
+    Problems,
+    RawTable,
+    SensorRecord,
+    check_columns,
+    check_table,
+    file_columns,
+    geodetic_to_enu_in_place,
+    resolve_origin,
+)
 from .errors import MeasurementFileError
 from .formats import Format, register_format
-from .positions import QUERY_ROWS, SensorRecord, geodetic_to_enu_in_place, resolve_origin
 from .tables import write_table
 
 __all__ = ["BLOCK_BYTES", "CSV", "SET_BYTES_PER_ROW", "csv_metadata_line", "load_csv",
@@ -96,10 +104,6 @@ def _preamble(data: bytes, complete: bool) -> tuple[dict[str, str], int, int] | 
 
 def _record_lines(path: Path, body: bytes, pre_lines: int) -> tuple[list[str], NDArray[np.int64]]:
     """Read the header names and the line of each data record."""
-    plain = _plain_records(body, pre_lines)
-    if plain is not None:
-        header, header_line, lines, problems = plain
-        return _checked_header(path, header, header_line, problems), lines
     reader = csv.reader(io.TextIOWrapper(io.BytesIO(body), encoding="utf-8", newline=""))
     first: list[str] | None = next(reader, None)
     if first is None:
@@ -146,42 +150,6 @@ def _checked_header(path: Path, header: list[str], header_line: int,
     if problems:
         raise MeasurementFileError(path, problems)
     return names
-
-
-#: Bytes of the body scanned at a time by :func:`_plain_records` (bounds its temporaries).
-_SCAN_BYTES = 1 << 22
-
-
-def _plain_records(body: bytes, pre_lines: int
-                   ) -> tuple[list[str], int, NDArray[np.int64], list[str]] | None:
-    """Split a body without quotes, carriage returns or NUL bytes into its records, in NumPy."""
-    if not body or b'"' in body or b"\r" in body or b"\0" in body:
-        return None
-    arr = np.frombuffer(body, dtype=np.uint8)
-    n = arr.size
-    ends = np.concatenate([np.flatnonzero(arr[lo:lo + _SCAN_BYTES] == 10) + lo
-                           for lo in range(0, n, _SCAN_BYTES)])
-    if ends.size == 0 or ends[-1] != n - 1:
-        ends = np.append(ends, n)  # the last line has no line end
-    starts = np.concatenate([[0], ends[:-1] + 1])
-    length = ends - starts
-    if length[0] == 0 or length.max() > csv.field_size_limit():
-        return None
-    commas = np.empty(starts.size, dtype=np.int64)
-    cuts = np.unique(np.searchsorted(starts, np.arange(0, n, _SCAN_BYTES)))
-    cuts = cuts[cuts < starts.size].tolist()
-    for i0, i1 in zip(cuts, [*cuts[1:], starts.size], strict=True):
-        lo, hi = int(starts[i0]), int(ends[i1 - 1]) + 1  # whole lines, line ends included
-        seg = (arr[lo:hi] == 44).view(np.uint8)  # the commas
-        commas[i0:i1] = np.add.reduceat(seg, starts[i0:i1] - lo, dtype=np.int64)
-    header = body[:int(ends[0])].decode("utf-8").split(",")
-    kept = np.flatnonzero(length[1:] > 0) + 1  # a blank line is skipped, as pandas does
-    lines = pre_lines + kept + 1
-    fields = commas[kept] + 1
-    problems = [f"row {r + 1} (line {lines[r]}): expected {len(header)} fields (one per header "
-                f"column), found {fields[r]}"
-                for r in np.flatnonzero(fields != len(header)).tolist()]
-    return header, pre_lines + 1, lines.astype(np.int64), problems
 
 
 def _give_back() -> None:
@@ -259,30 +227,19 @@ class _Columns:
         self.ref: NDArray[np.float64] | None = None
         self.ref_columns: list[int] = []
 
-    def _arrays(self) -> list[NDArray[Any]]:
-        """List the per-row arrays (the 1-D ones)."""
-        return [*self.num.values(), self.sensor, self.kind,
-                *(() if self.time_ref is None else (self.time_ref,))]
-
-    def reserve(self, rows: int) -> None:
-        """Make room for ``rows`` more rows (grown by a quarter at least)."""
-        need = self.n + rows
-        if need <= self.kind.shape[0]:
-            return
-        size = max(need, int(self.kind.shape[0] * 1.25))
-        for a in self._arrays():
-            a.resize(size, refcheck=False)
+    def resize(self, size: int) -> None:
+        """Give every per-row array ``size`` rows, in place."""
+        for a in (*self.num.values(), self.sensor, self.kind, self.time_ref):
+            if a is not None:
+                a.resize(size, refcheck=False)
         for b in (self.state, self.ref):
             if b is not None:
                 b.resize((size, 6), refcheck=False)
 
-    def trim(self) -> None:
-        """Drop the spare rows."""
-        for a in self._arrays():
-            a.resize(self.n, refcheck=False)
-        for b in (self.state, self.ref):
-            if b is not None:
-                b.resize((self.n, 6), refcheck=False)
+    def reserve(self, rows: int) -> None:
+        """Make room for ``rows`` more rows (grown by a quarter at least)."""
+        if self.n + rows > self.kind.shape[0]:
+            self.resize(max(self.n + rows, int(self.kind.shape[0] * 1.25)))
 
     def put_reference(self, name: str, values: NDArray[np.float64]) -> None:
         """Store a block of ``time_ref`` or a ``ref_sensor_*`` column (NaN for empty)."""
@@ -391,7 +348,7 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
     _give_back()
     if cols is None or cols.n == 0:
         raise _Fallback
-    cols.trim()
+    cols.resize(cols.n)  # the spare rows dropped
     return cols
 
 
@@ -491,8 +448,7 @@ def _reference_states(cols: _Columns, has_velocity: bool) -> NDArray[np.float64]
         given = ~np.isnan(block[:, 0])
         for i in absent:
             block[given, i] = 0.0
-        counts += np.bincount(sensor[lo:lo + QUERY_ROWS][_need(kind, ref, lo)],
-                              minlength=names)
+        counts += np.bincount(sensor[lo:lo + QUERY_ROWS][_need(kind, ref, lo)], minlength=names)
     for code in np.flatnonzero(counts).tolist():
         mine = None if names == 1 else np.flatnonzero(sensor == code)
         record = SensorRecord(time, cols.state, mine, has_velocity)
@@ -508,13 +464,12 @@ def _reference_states(cols: _Columns, has_velocity: bool) -> NDArray[np.float64]
 def _need(kind: NDArray[np.int8], ref: NDArray[np.float64], lo: int) -> NDArray[np.bool_]:
     """Flag the range differences without ``ref_sensor_*`` cells of a block from row ``lo``."""
     hi = lo + QUERY_ROWS
-    return (_USES_REFERENCE[kind[lo:hi]] & ~_BETWEEN_SENSORS[kind[lo:hi]]
-            & np.isnan(ref[lo:hi, 0]))
+    return (_USES_REFERENCE[kind[lo:hi]] & ~_BETWEEN_SENSORS[kind[lo:hi]] & np.isnan(ref[lo:hi, 0]))
 
 
 def _origin(origin: tuple[float, float, float] | None, metadata: dict[str, str]
             ) -> tuple[tuple[float, float, float] | None, dict[str, str]]:
-    """Pick the ENU origin as the full reader does (:func:`.positions.resolve_origin`)."""
+    """Pick the ENU origin as the full reader does (:func:`.checker.resolve_origin`)."""
     problems = Problems(RawTable(None, metadata, None))
     found, origin_metadata = resolve_origin(origin, metadata, problems)
     return (None, {}) if problems.file else (found, origin_metadata)

@@ -1,10 +1,8 @@
 """Debrief replay files (``.rep``, ``.dsf``) as measurement sets.
 
-The lines are parsed as Debrief's documentation of the replay format writes them: track fixes,
-``;SENSOR:``, ``;SENSOR2:``, ``;SENSOR3:``, ``;TMA_POS:`` and ``;TMA_RB:`` lines (other ``;`` lines
-are skipped; a position's ``60`` minutes or seconds is read as a carry, as Debrief does).  Own
-ship, contact, placeholder ranges, sigmas and frame are read as ``docs/your-own-data.md``
-tabulates; what was read otherwise than written is said in the set's ``reader_notes``.
+Track fixes, ``;SENSOR:``, ``;SENSOR2:``, ``;SENSOR3:``, ``;TMA_POS:`` and ``;TMA_RB:`` lines as
+Debrief's documentation writes them; other ``;`` lines are skipped.  What was read otherwise than
+written is said in the set's ``reader_notes`` (``docs/your-own-data.md``).
 """
 
 from __future__ import annotations
@@ -49,86 +47,83 @@ _VERSIONS = {";SENSOR:": 1, ";SENSOR2:": 2, ";SENSOR3:": 3}
 _SOLUTIONS = (";TMA_POS:", ";TMA_RB:")
 
 
+# The lines as read: times in ns since the Unix epoch (UTC), angles in degrees (true), ``line``
+# 1-based, ``file`` the file's name when several are read as one replay; None: not in the line.
+
+
 @dataclass(frozen=True)
 class TrackLine:
-    """A track fix of a replay file."""
+    """A track fix of a replay file (depth in m)."""
 
-    line: int  # Line number in the file (1-based)
-    name: str  # The track's name
-    time_ns: int  # Time, ns since the Unix epoch (UTC)
-    #: lat, lon: Position, degrees
+    line: int
+    name: str
+    time_ns: int
     lat: float
     lon: float
-    #: course, speed_kn, depth: Course (degrees true), speed (knots) and depth (m)
     course: float
     speed_kn: float
     depth: float
-    file: str = ""  # The file's name (for messages when several files are read as one replay)
+    file: str = ""
 
 
 @dataclass(frozen=True)
 class SensorLine:
-    """A ``;SENSOR:``, ``;SENSOR2:`` or ``;SENSOR3:`` contact (None: ``NULL`` in the file)."""
+    """A ``;SENSOR:``, ``;SENSOR2:`` or ``;SENSOR3:`` contact of the track ``host`` (Hz, yards).
 
-    line: int  # Line number in the file (1-based)
-    host: str  # The track that holds the sensor
-    time_ns: int  # Time, ns since the Unix epoch (UTC)
-    #: lat, lon: The sensor's position, degrees (None: the host track's position at ``time_ns``)
+    ``lat``, ``lon`` None: the host track's position at ``time_ns``; the accuracies are the
+    standard deviations a ``;SENSOR3:`` line states.
+    """
+
+    line: int
+    host: str
+    time_ns: int
     lat: float | None
     lon: float | None
-    #: bearing, ambiguous: Bearing and its ambiguous twin, degrees true
     bearing: float | None
     ambiguous: float | None
-    frequency: float | None  # Frequency, Hz
-    range_yd: float | None  # Range, yards
-    #: sensor, label: The sensor's name and the contact's label
+    frequency: float | None
+    range_yd: float | None
     sensor: str
     label: str
-    #: bearing_accuracy, frequency_accuracy: The standard deviations a ``;SENSOR3:`` line states
-    #: (deg, Hz); None elsewhere
     bearing_accuracy: float | None = None
     frequency_accuracy: float | None = None
-    file: str = ""  # The file's name (for messages when several files are read as one replay)
+    file: str = ""
 
 
 @dataclass(frozen=True)
 class SolutionLine:
-    """A ``;TMA_POS:`` or ``;TMA_RB:`` solution point (None where the line does not say)."""
+    """A ``;TMA_POS:`` (position) or ``;TMA_RB:`` (from the vessel) solution point.
 
-    line: int  # Line number in the file (1-based)
-    vessel: str  # The track the solution belongs to (Debrief's "ownship name")
-    time_ns: int  # Time, ns since the Unix epoch (UTC)
-    #: lat, lon: The solution's position, degrees (``;TMA_POS:``)
+    The ellipse: its major axis ``orientation`` and semi-axes in yards; ``label``: the rest of
+    the line.
+    """
+
+    line: int
+    vessel: str
+    time_ns: int
     lat: float | None
     lon: float | None
-    #: bearing, range_yd: Its bearing (degrees true) and range (yards) from the vessel
-    #: (``;TMA_RB:``)
     bearing: float | None
     range_yd: float | None
-    solution: str  # The solution's name
-    #: orientation, maxima_yd, minima_yd: The ellipse: its major axis (degrees true) and semi-axes
-    #: (yards); None for ``NULL``
+    solution: str
     orientation: float | None
     maxima_yd: float | None
     minima_yd: float | None
-    #: course, speed_kn, depth: Course (degrees true), speed (knots), depth (m)
     course: float
     speed_kn: float
     depth: float
-    label: str  # The rest of the line
-    file: str = ""  # The file's name
+    label: str
+    file: str = ""
 
 
 @dataclass(frozen=True)
 class LineProblem:
-    """A line that breaks the replay format."""
+    """A line that breaks the replay format, and the track it belongs to (None: unknown)."""
 
-    line: int  # Line number in the file (1-based)
-    #: The track the line belongs to (a track line's name, a sensor line's host), None when the line
-    #: does not get that far
+    line: int
     owner: str | None
-    message: str  # What is wrong (``expected ..., found ...``)
-    file: str = ""  # The file's name
+    message: str
+    file: str = ""
 
 
 class LineError(ValueError):
@@ -174,8 +169,7 @@ def _number(token: str, what: str, null: bool = False) -> float | None:
     return value
 
 
-def _angle(tokens: list[str], at: int, hemispheres: str, limit: float,
-           carries: list[str]) -> float:
+def _angle(tokens: list[str], at: int, hemispheres: str, limit: float, carries: list[str]) -> float:
     """Degrees from ``D M S H`` at ``tokens[at:at+4]``; a minute or second of 60 is a carry."""
     if len(tokens) < at + 4:
         raise LineError(f"expected a position D M S {'/'.join(hemispheres)}, found the end of "
@@ -198,8 +192,7 @@ def _angle(tokens: list[str], at: int, hemispheres: str, limit: float,
 
 
 def _position(tokens: list[str], at: int, carries: list[str]) -> tuple[float, float]:
-    return (_angle(tokens, at, "NS", 90.0, carries),
-            _angle(tokens, at + 4, "EW", 180.0, carries))
+    return (_angle(tokens, at, "NS", 90.0, carries), _angle(tokens, at + 4, "EW", 180.0, carries))
 
 
 def _track(tokens: list[str], line: int, carries: list[str]) -> TrackLine:
@@ -293,15 +286,12 @@ def _solution(tokens: list[str], line: int, head: str, carries: list[str]) -> So
 
 @dataclass
 class ParsedReplay:
-    """The lines of one or more replay files, parsed."""
+    """The lines of one or more replay files, parsed, in file order."""
 
-    tracks: list[TrackLine]  # The track fixes, in file order
-    #: The ``;SENSOR:``, ``;SENSOR2:`` and ``;SENSOR3:`` contacts, in file order
+    tracks: list[TrackLine]
     sensors: list[SensorLine]
-    problems: list[LineProblem]  # Every line that breaks the format
-    #: Each position written with a minute or second of 60 (a carry), as written
-    carries: list[LineProblem]
-    #: The ``;TMA_POS:`` and ``;TMA_RB:`` solution points, in file order
+    problems: list[LineProblem]
+    carries: list[LineProblem]  # positions written with a minute or second of 60
     solutions: list[SolutionLine] = field(default_factory=list)
 
 
@@ -359,8 +349,7 @@ _RANGES_CHOICES = ("use", "ignore")
 
 def _paths(path: ReplayPaths) -> tuple[list[Path], Path]:
     """Return the files and the name that messages give them (``A.rep + B.dsf``)."""
-    paths = ([Path(path)] if isinstance(path, str | os.PathLike)
-             else [Path(p) for p in path])
+    paths = ([Path(path)] if isinstance(path, str | os.PathLike) else [Path(p) for p in path])
     if not paths:
         raise ValueError("read_replay: no file given")
     return paths, Path(" + ".join(str(p) for p in paths))
@@ -383,12 +372,18 @@ def _load(paths: list[Path]) -> ParsedReplay:
     return merged
 
 
-def replay_tracks(path: ReplayPaths) -> dict[str, dict[str, NDArray]]:
-    """Read the track lines of a replay file (or of several, as one replay), by track name."""
+def _load_valid(path: ReplayPaths) -> ParsedReplay:
+    """Parse replay files, refusing every line that breaks the format."""
     paths, where = _paths(path)
     parsed = _load(paths)
     if parsed.problems:
         raise MeasurementFileError(where, [_problem(p) for p in parsed.problems])
+    return parsed
+
+
+def replay_tracks(path: ReplayPaths) -> dict[str, dict[str, NDArray]]:
+    """Read the track lines of a replay file (or of several, as one replay), by track name."""
+    parsed = _load_valid(path)
     out: dict[str, dict[str, NDArray]] = {}
     for name in dict.fromkeys(t.name for t in parsed.tracks):
         mine = sorted((t for t in parsed.tracks if t.name == name), key=lambda t: t.time_ns)
@@ -403,11 +398,7 @@ def replay_tracks(path: ReplayPaths) -> dict[str, dict[str, NDArray]]:
 
 def replay_solutions(path: ReplayPaths) -> list[SolutionLine]:
     """Read the TMA solution points of a replay file (``;TMA_POS:`` and ``;TMA_RB:`` lines)."""
-    paths, where = _paths(path)
-    parsed = _load(paths)
-    if parsed.problems:
-        raise MeasurementFileError(where, [_problem(p) for p in parsed.problems])
-    return parsed.solutions
+    return _load_valid(path).solutions
 
 
 def _problem(p: LineProblem) -> str:
@@ -703,8 +694,7 @@ def _at_line(item: TrackLine | SensorLine | LineProblem) -> str:
 
 def _listed(items: Sequence[str], most: int = 5, sep: str = "; ") -> str:
     """Join the first ``most`` items, then say how many more there are."""
-    return sep.join(items[:most]) + (f" and {len(items) - most} more" if len(items) > most
-                                     else "")
+    return sep.join(items[:most]) + (f" and {len(items) - most} more" if len(items) > most else "")
 
 
 def _values(item: TrackLine | SensorLine) -> str:
@@ -752,27 +742,21 @@ def _host_fixes(path: Path, tracks: list[TrackLine], host: str, rows: list[Senso
                notes: list[str]) -> Fixes:
     """Return the host's fixes: its track lines, else the positions its sensor lines state."""
     mine = [t for t in tracks if t.name == host]
-    if not mine:
-        stated = [s for s in rows if s.lat is not None]
-        null = [s for s in rows if s.lat is None]
-        if null and not stated:
-            named = ", ".join(dict.fromkeys(t.name for t in tracks)) or "none"
-            lines = _listed([_at_line(s) for s in null], sep=", ")
-            raise MeasurementFileError(path, [
-                f"sensor positions NULL ({lines}), but own ship {host!r} has no track lines "
-                f"(tracks read: {named}): {_PAIR_HINT}"])
-        fixes = _unique(path, stated, host, notes)
-        return Fixes(np.array([s.time_ns for s in fixes], np.int64),
-                     np.array([s.lat for s in fixes], float),
-                     np.array([s.lon for s in fixes], float), np.zeros(len(fixes)), None,
-                     np.array([s.line for s in fixes], np.int64))
-    kept = [t for t in _unique(path, mine, host, notes) if isinstance(t, TrackLine)]
-    return Fixes(np.array([t.time_ns for t in kept], np.int64),
-                 np.array([t.lat for t in kept]), np.array([t.lon for t in kept]),
-                 np.zeros(len(kept)),
-                 course_speed_velocity(np.array([t.course for t in kept]),
-                                       np.array([t.speed_kn for t in kept]) * KNOT),
-                 np.array([t.line for t in kept], np.int64))
+    stated = [s for s in rows if s.lat is not None]
+    null = [s for s in rows if s.lat is None]
+    if not mine and null and not stated:
+        named = ", ".join(dict.fromkeys(t.name for t in tracks)) or "none"
+        lines = _listed([_at_line(s) for s in null], sep=", ")
+        raise MeasurementFileError(path, [
+            f"sensor positions NULL ({lines}), but own ship {host!r} has no track lines "
+            f"(tracks read: {named}): {_PAIR_HINT}"])
+    kept = _unique(path, mine or stated, host, notes)
+    fixes = [t for t in kept if isinstance(t, TrackLine)]  # (all of them when mine)
+    velocity = None if not mine else course_speed_velocity(
+        np.array([t.course for t in fixes]), np.array([t.speed_kn for t in fixes]) * KNOT)
+    return Fixes(np.array([k.time_ns for k in kept], np.int64),
+                 np.array([k.lat for k in kept], float), np.array([k.lon for k in kept], float),
+                 np.zeros(len(kept)), velocity, np.array([k.line for k in kept], np.int64))
 
 
 def _sensor_states(path: Path, rows: list[SensorLine], fixes: Fixes, frame: LocalFrame,

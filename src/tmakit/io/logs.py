@@ -1,11 +1,6 @@
 """What the readers of real logs share: clock times, the local frame, the surface rule, the rules.
 
-Clock times, the ENU origin and altitude reference, the surface rule and velocities from
-positions follow ``docs/your-own-data.md``; a log's values obey the rules of a measurement file,
-each problem named by its place in the log.  A time typed by a user (``--from``, ``--to``,
-``--at``, a reader's window) is seconds since the set's ``time_origin``, an ISO-8601 instant (UTC
-unless a zone is named), or ``HH:MM[:SS[.S]]`` UTC on the day of the data (only where the data
-lie within one UTC day).
+As ``docs/your-own-data.md`` says; each problem is named by its place in the log.
 """
 
 from __future__ import annotations
@@ -170,8 +165,7 @@ def iso_utc(time_ns: int) -> str:
     return stamp + "Z"
 
 
-def clock_times(metadata: dict[str, str], t: NDArray[np.float64]
-                ) -> NDArray[np.datetime64] | None:
+def clock_times(metadata: dict[str, str], t: NDArray[np.float64]) -> NDArray[np.datetime64] | None:
     """Return the UTC clock times of set times ``t`` (s), from the ``time_origin`` metadata."""
     text = metadata.get("time_origin")
     if not text:
@@ -210,8 +204,7 @@ def interpolate_states(t_fix: NDArray[np.float64], states: NDArray[np.float64],
     """Interpolate platform states linearly in time (each component), and mark times outside."""
     out = np.column_stack([np.interp(t, t_fix, states[:, j]) for j in range(states.shape[1])])
     eps = 1e-9 * max(1.0, float(np.max(np.abs(t_fix)))) if len(t_fix) else 0.0
-    outside = (t < t_fix[0] - eps) | (t > t_fix[-1] + eps) if len(t_fix) else np.ones(
-        t.shape, bool)
+    outside = (t < t_fix[0] - eps) | (t > t_fix[-1] + eps) if len(t_fix) else np.ones(t.shape, bool)
     return out, outside
 
 

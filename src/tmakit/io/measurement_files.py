@@ -1,7 +1,4 @@
-"""Measurement files: a :class:`~tmakit.data.MeasurementSet` read from or written to a file.
-
-Any registered format is used (CSV and Parquet today; :mod:`tmakit.io.formats`).
-"""
+"""Measurement files read and written by their registered format (:mod:`tmakit.io.formats`)."""
 
 from __future__ import annotations
 
@@ -12,7 +9,7 @@ from pathlib import Path
 from ..core.keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from ..data import MeasurementSet
 from . import csv_file, debrief, parquet_file, wide_log  # noqa: F401  (register formats)
-from .contract import COLUMN_ORDER, COLUMN_PURPOSE, FORMAT_LINE, PARQUET_METADATA_PREFIX
+from .checker import COLUMN_ORDER, COLUMN_PURPOSE, FORMAT_LINE, PARQUET_METADATA_PREFIX
 from .errors import MAX_LISTED_PROBLEMS, MeasurementFileError, refuse_unreadable
 from .formats import find_format, registered_formats, suffix_text
 
@@ -141,10 +138,7 @@ def _read_several(paths: list[Path], origin: tuple[float, float, float] | None,
 
 def write_measurements(ms: MeasurementSet, path: str | os.PathLike[str],
                        force: bool = False, *, format: str | None = None) -> Path:
-    """Write a MeasurementSet in a registered format (by the suffix of ``path``).
-
-    The file is written to a temporary file in the same folder and then moved into place, so a
-    failure never leaves a partial file nor damages an existing one.
+    """Write a MeasurementSet atomically in a registered format (by the suffix of ``path``).
 
     Parameters
     ----------

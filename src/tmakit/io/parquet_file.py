@@ -9,8 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from ..data import MeasurementSet
-from .checker import check_table
-from .contract import PARQUET_METADATA_PREFIX, RawTable, file_columns
+from .checker import PARQUET_METADATA_PREFIX, RawTable, check_table, file_columns
 from .errors import MeasurementFileError
 from .formats import Format, register_format
 from .tables import write_table

@@ -1,8 +1,6 @@
-"""A batch solution written out: Debrief replay lines, GeoJSON or KML (``tma estimate --export``).
+"""A batch solution as Debrief lines, GeoJSON or KML (``tma estimate --export``).
 
-The solution is written as points along the estimated track, every ``every`` seconds over the data's
-span (and at its last time), each with its position, course, speed and position ellipse
-(:func:`tmakit.results.answers.estimate_answer`), so that the file shows what tmakit printed.
+Points every ``every`` seconds over the data's span, each with the answers tmakit prints.
 """
 
 from __future__ import annotations
@@ -43,8 +41,7 @@ def solution_answers(meas: MeasurementSet, result: EstimateResult, every: float 
     if times.size > MAX_POINTS:
         raise ValueError(f"{times.size} solution points at one every {every:g} s: more than "
                          f"{MAX_POINTS}; write fewer (a longer step)")
-    return [estimate_answer(result, meas, time=float(t), sensor=sensor, level=level)
-            for t in times]
+    return [estimate_answer(result, meas, time=float(t), sensor=sensor, level=level) for t in times]
 
 
 def _dms(value: float, hemispheres: str, width: int) -> str:
@@ -75,8 +72,7 @@ def _stamp(clock: str) -> str:
 
 def _ellipse_tokens(a: Answer) -> str:
     e = a.ellipse
-    if e is None or not all(map(math.isfinite, (e.semi_major, e.semi_minor,
-                                                 e.orientation_deg))):
+    if e is None or not all(map(math.isfinite, (e.semi_major, e.semi_minor, e.orientation_deg))):
         return "NULL"
     return f"{e.orientation_deg % 360:.1f} {e.semi_major / YARD:.1f} {e.semi_minor / YARD:.1f}"
 
@@ -101,8 +97,7 @@ def rep_lines(answers: list[Answer], solution: str, label: str,
         tail = f"{_solution_token(solution)} {_ellipse_tokens(a)} {_motion_tokens(a)} {label}"
         lines.append(f";TMA_POS: {head} {_dms(lat, 'NS', 2)} {_dms(lon, 'EW', 3)} {tail}")
         if range_bearing and a.range_m is not None and a.bearing_deg is not None:
-            lines.append(f";TMA_RB: {head} {a.bearing_deg % 360:.2f} {a.range_m / YARD:.1f} "
-                         f"{tail}")
+            lines.append(f";TMA_RB: {head} {a.bearing_deg % 360:.2f} {a.range_m / YARD:.1f} {tail}")
     return lines
 
 

@@ -1,8 +1,4 @@
-"""Writing files: one safe way, the one table writer, and the study tables written with it.
-
-A file is written to a temporary file in the same folder and moved into place, so a failure never
-leaves a partial file nor damages an existing one; tables are CSV or Parquet.
-"""
+"""Writing files: atomically (a temporary file moved into place), and tables as CSV or Parquet."""
 
 from __future__ import annotations
 
@@ -21,12 +17,10 @@ if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
     import pyarrow as pa
 
-    from ..montecarlo import MonteCarloResult
     from ..montecarlo.closed_loop import ClosedLoopStudy, LoopChunk
 
 __all__ = ["TABLE_SUFFIXES", "TEMP_PATTERN", "LoopCheckpoint", "atomic_write",
-           "clean_stale_temporaries", "exists_error", "fsync_file", "table_format",
-           "write_loop_table", "write_study_table", "write_table"]
+           "clean_stale_temporaries", "exists_error", "fsync_file", "table_format", "write_table"]
 
 try:
     import fcntl
@@ -39,9 +33,7 @@ TEMP_PATTERN = re.compile(r"^\..+\.[0-9a-f]{12}\.tmp(\.[A-Za-z0-9]{1,8})?$")
 
 
 def exists_error(path: str | os.PathLike[str]) -> FileExistsError:
-    """Build the error for refusing to overwrite ``path``.
-
-    It names the parameter ``force=True``; the command line says ``--force`` in its own message.
+    """Build the error for refusing to overwrite ``path`` (it names ``force=True``).
 
     Parameters
     ----------
@@ -282,34 +274,12 @@ def _arrow_column(values: Any, kind: pa.DataType) -> pa.Array:
     return pa.array(np.asarray(values), type=kind)
 
 
-def write_study_table(res: MonteCarloResult, path: str | os.PathLike[str],
-                      force: bool = False) -> Path:
-    """Write the per-run table of a Monte Carlo study."""
-    # write_table refuses another suffix, naming "the per-run table".
-    return write_table(path, res.table, force=force, what="the per-run table")
-
-
-def write_loop_table(study: ClosedLoopStudy, path: str | os.PathLike[str],
-                     force: bool = False) -> Path:
-    """Write the per-step table of a closed-loop study."""
-    return write_table(path, study.table(), force=force, what="the per-step table")
-
-
 def _slug(text: str) -> str:
     return "".join(c if c.isalnum() or c in "-_" else "_" for c in text)
 
 
 class LoopCheckpoint:
-    """Save each finished chunk of a closed-loop study at once; the whole table at the end.
-
-    Parameters
-    ----------
-    path : str or path-like
-        The final table (``.parquet``, ``.pq`` or ``.csv``); the chunks go to the folder
-        ``<path>.parts`` (Parquet).
-    force : bool, optional
-        Overwrite an existing table or parts folder.
-    """
+    """Save each finished chunk of a closed-loop study to ``<path>.parts``; the table at the end."""
 
     def __init__(self, path: str | os.PathLike[str], force: bool = False) -> None:
         self.path = Path(path)
@@ -332,7 +302,7 @@ class LoopCheckpoint:
 
     def finish(self, study: ClosedLoopStudy) -> Path:
         """Write the whole table, then remove the parts folder."""
-        out = write_loop_table(study, self.path, force=self.force)
+        out = write_table(self.path, study.table(), force=self.force, what="the per-step table")
         if self.parts.is_dir():
             shutil.rmtree(self.parts)
         return out

@@ -1,8 +1,4 @@
-"""Track files: the table of a :class:`~tmakit.filters.Track` as CSV or Parquet.
-
-What the table holds is the tracking layer's (:func:`tmakit.tracking.track_table`); this
-module writes it with the one table writer (:func:`~.tables.write_table`), atomically.
-"""
+"""Track files: the table of a :class:`~tmakit.filters.Track` as CSV or Parquet."""
 
 from __future__ import annotations
 

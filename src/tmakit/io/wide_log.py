@@ -218,8 +218,7 @@ def _track_states(tab: _Table, track: Fixes, frame: LocalFrame, t: NDArray[np.fl
                   t0: int, window: float) -> NDArray[np.float64]:
     tf = relative_seconds(track.time_ns, t0)
     pos = frame.enu(track.lat, track.lon, track.alt)
-    vel = track.velocity if track.velocity is not None else velocity_from_positions(
-        tf, pos, window)
+    vel = track.velocity if track.velocity is not None else velocity_from_positions(tf, pos, window)
     vel = np.array(vel, float)
     if frame.dim == 2:
         vel[:, 2] = 0.0
@@ -327,8 +326,7 @@ def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArra
     tab.fail()
     cols = [np.concatenate([p[i] for p in parts]) for i in range(9)]  # (a column: a tonal)
     if cols[0].size == 0:
-        raise MeasurementFileError(tab.path, ["every measurement cell is empty: nothing "
-                                              "measured"])
+        raise MeasurementFileError(tab.path, ["every measurement cell is empty: nothing measured"])
     time, sensor, kind, value, sigma, state = cols[:6]
     raw = MeasurementSet.from_si(time, sensor, kind, value, sigma, state, metadata=metadata,
                                  check=False, tonal=cols[8] if "frequency" in kind else None)
