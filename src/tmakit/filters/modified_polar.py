@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from functools import cache
 from typing import Any
 
 import numpy as np
@@ -41,9 +42,22 @@ from .general import DynamicsCache, finite
 #: vz]``.
 _MP_IN_MSC = [0, 2, 4, 5]
 _XY_IN_XYZ = [0, 1, 3, 4]
+_ALL = list(range(6))
+_TAKE = {4: (np.array(_XY_IN_XYZ), np.ix_(_XY_IN_XYZ, _MP_IN_MSC)),
+         6: (slice(None), slice(None))}
 #: Nodes of the prior's moments (:meth:`ModifiedPolarEKF.from_first_bearing`): log-range,
 #: height, bearing.
 _NODES = (48, 12, 5)
+
+
+@cache
+def _nodes(kind: str, count: int) -> tuple[Array, Array]:
+    """Gauss-Legendre (on [-1, 1]) or Gauss-Hermite (standard normal) nodes and weights."""
+    if kind == "legendre":
+        x, w = np.polynomial.legendre.leggauss(count)
+        return x, w / 2.0
+    x, w = np.polynomial.hermite_e.hermegauss(count)
+    return x, w / math.sqrt(2.0 * math.pi)
 
 
 def _line_of_sight(b: ArrayLike, e: ArrayLike) -> tuple[Array, Array, Array]:
@@ -54,22 +68,28 @@ def _line_of_sight(b: ArrayLike, e: ArrayLike) -> tuple[Array, Array, Array]:
             np.stack([-sb * se, -cb * se, ce], -1))
 
 
-def _msc_to_cartesian(msc: Array) -> tuple[Array, Array]:
-    """Give the relative ``[x, y, z, vx, vy, vz]`` of a modified spherical state, d rel / d msc."""
-    b, e, w, ed, g, rho = (float(v) for v in msc)
-    u, eb, ee = _line_of_sight(b, e)
-    horizontal = np.array([math.sin(b), math.cos(b), 0.0])
-    rates = g * u + w * eb + ed * ee
-    rel = np.concatenate([u, rates]) / rho
-    jac = np.zeros((6, 6))
-    jac[:3, 0] = math.cos(e) * eb
-    jac[:3, 1] = ee
-    jac[3:, 0] = (g * math.cos(e) - ed * math.sin(e)) * eb - w * horizontal
-    jac[3:, 1] = g * ee - ed * u
-    jac[3:, 2], jac[3:, 3], jac[3:, 4] = eb, ee, u
-    jac /= rho
-    jac[:, 5] = -rel / rho
-    return rel, jac
+def _msc_to_cartesian(msc: list[float], keep: list[int]) -> tuple[Array, Array]:
+    """Give rows/columns ``keep`` of the relative Cartesian state of ``msc`` and ``d rel / d msc``.
+
+    Plain floats: the filter's step calls it several times.
+    """
+    b, e, w, ed, g, rho = msc
+    sb, cb, se, ce = math.sin(b), math.cos(b), math.sin(e), math.cos(e)
+    r = 1.0 / rho
+    u0, u1, u2 = sb * ce * r, cb * ce * r, se * r  # u, e_beta, e_eps: the frame, times r
+    b0, b1 = cb * r, -sb * r
+    e0, e1, e2 = -sb * se * r, -cb * se * r, ce * r
+    v0, v1, v2 = g * u0 + w * b0 + ed * e0, g * u1 + w * b1 + ed * e1, g * u2 + ed * e2
+    turn = g * ce - ed * se  # d u / d beta = cos(e) e_beta; d e_eps / d beta = -sin(e) e_beta
+    jac = np.array([
+        [ce * b0, e0, 0.0, 0.0, 0.0, -u0 * r],
+        [ce * b1, e1, 0.0, 0.0, 0.0, -u1 * r],
+        [0.0, e2, 0.0, 0.0, 0.0, -u2 * r],
+        [turn * b0 - w * sb * r, g * e0 - ed * u0, b0, e0, u0, -v0 * r],
+        [turn * b1 - w * cb * r, g * e1 - ed * u1, b1, e1, u1, -v1 * r],
+        [0.0, g * e2 - ed * u2, 0.0, e2, u2, -v2 * r]])
+    rows, columns = _TAKE[len(keep)]
+    return np.array([u0, u1, u2, v0, v1, v2])[rows], jac[columns]
 
 
 def from_modified_polar(mp: ArrayLike) -> tuple[Array, Array]:
@@ -88,13 +108,11 @@ def from_modified_polar(mp: ArrayLike) -> tuple[Array, Array]:
     jacobian : numpy.ndarray
         ``d rel / d mp`` (analytic).
     """
-    mp = np.asarray(mp, dtype=float)
-    if mp.shape[0] == 6:
-        return _msc_to_cartesian(mp)
-    msc = np.zeros(6)
-    msc[_MP_IN_MSC] = mp
-    rel, jac = _msc_to_cartesian(msc)
-    return rel[_XY_IN_XYZ], jac[np.ix_(_XY_IN_XYZ, _MP_IN_MSC)]
+    values = np.asarray(mp, dtype=float).tolist()
+    if len(values) == 6:
+        return _msc_to_cartesian(values, _ALL)
+    b, w, g, rho = values
+    return _msc_to_cartesian([b, 0.0, w, 0.0, g, rho], _XY_IN_XYZ)
 
 
 def to_modified_polar(rel: ArrayLike) -> Array:
@@ -110,17 +128,20 @@ def to_modified_polar(rel: ArrayLike) -> Array:
     numpy.ndarray
         The state of :func:`from_modified_polar`.
     """
-    rel = np.asarray(rel, dtype=float)
-    flat = rel.shape[0] == 4
+    values = np.asarray(rel, dtype=float).tolist()
+    flat = len(values) == 4
+    x, y, z, vx, vy, vz = ((values[0], values[1], 0.0, values[2], values[3], 0.0) if flat
+                           else values)
+    h2 = x * x + y * y
+    r2 = h2 + z * z
+    r, h = math.sqrt(r2), math.sqrt(h2)
+    b, e = math.atan2(x, y), math.atan2(z, h)
+    sb, cb, se, ce = math.sin(b), math.cos(b), math.sin(e), math.cos(e)
+    omega = (vx * cb - vy * sb) / r  # v . e_beta / r
     if flat:
-        rel = np.insert(rel, [2, 4], 0.0)
-    p, v = rel[:3], rel[3:]
-    r2 = float(p @ p)
-    b, e = math.atan2(p[0], p[1]), math.atan2(p[2], math.hypot(p[0], p[1]))
-    _, eb, ee = _line_of_sight(b, e)
-    r = math.sqrt(r2)
-    msc = np.array([b, e, v @ eb / r, v @ ee / r, p @ v / r2, 1.0 / r])
-    return msc[_MP_IN_MSC] if flat else msc
+        return np.array([b, omega, (x * vx + y * vy) / r2, 1.0 / r])
+    return np.array([b, e, omega, (ce * vz - se * (vx * sb + vy * cb)) / r,
+                     (x * vx + y * vy + z * vz) / r2, 1.0 / r])
 
 
 def prior_moments(prior: BearingPrior, first: FirstBearing, dim: int) -> tuple[Array, Array]:
@@ -145,15 +166,15 @@ def prior_moments(prior: BearingPrior, first: FirstBearing, dim: int) -> tuple[A
     mean, covariance : numpy.ndarray
         ``(2 dim,)`` and ``(2 dim, 2 dim)``.
     """
-    leg = np.polynomial.legendre.leggauss(_NODES[0])
+    leg = _nodes("legendre", _NODES[0])
     log_r = math.log(prior.range_min) + 0.5 * (leg[0] + 1.0) * math.log(prior.range_max
                                                                        / prior.range_min)
     lo, hi = prior.height if dim == 3 else (first.sensor[2], first.sensor[2])
-    hl = np.polynomial.legendre.leggauss(_NODES[1]) if hi > lo else (np.zeros(1), np.full(1, 2.0))
+    hl = _nodes("legendre", _NODES[1]) if hi > lo else (np.zeros(1), np.ones(1))
     heights = lo + 0.5 * (hl[0] + 1.0) * (hi - lo)
-    her = np.polynomial.hermite_e.hermegauss(_NODES[2])
+    her = _nodes("hermite", _NODES[2])
     bearings = first.bearing + first.sigma * her[0]
-    weights = np.einsum("i,j,k->ijk", leg[1] / 2, hl[1] / 2, her[1] / math.sqrt(2 * math.pi))
+    weights = leg[1][:, None, None] * hl[1][None, :, None] * her[1][None, None, :]
     velocity = prior.gaussian(first, dim)[1][dim:, dim:]
     v_cov = np.zeros((3, 3))
     v_cov[:dim, :dim] = velocity
@@ -167,12 +188,13 @@ def prior_moments(prior: BearingPrior, first: FirstBearing, dim: int) -> tuple[A
     m = np.zeros((w.shape[0], 6))
     m[:, 0], m[:, 1], m[:, 5] = b, e, rho
     rates = [4, 2, 3]  # r_dot/r, omega, epsilon_dot: along u, e_beta, e_eps
-    m[:, rates] = -rho[:, None] * np.einsum("kij,i->kj", frame, first.sensor[3:])
+    m[:, rates] = -rho[:, None] * (first.sensor[3:] @ frame)
     mean = w @ m
     d = m - mean
-    cov = np.einsum("k,ki,kj->ij", w, d, d)
-    cov[np.ix_(rates, rates)] += np.einsum("k,kia,ij,kjb->ab", w * rho**2, frame, v_cov, frame)
-    keep = _MP_IN_MSC if dim == 2 else list(range(6))
+    cov = (d.T * w) @ d
+    given_position = np.swapaxes(frame, 1, 2) @ v_cov @ frame
+    cov[np.ix_(rates, rates)] += np.tensordot(w * rho**2, given_position, 1)
+    keep = _MP_IN_MSC if dim == 2 else _ALL
     return mean[keep], 0.5 * (cov + cov.T)[np.ix_(keep, keep)]
 
 
@@ -218,7 +240,7 @@ class ModifiedPolarEKF(TrackingFilter):
         super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
                          nuisance=nuisance)
         self._cache = DynamicsCache(self.dynamics)
-        self._sensor_part = _XY_IN_XYZ if self.dim == 2 else list(range(6))
+        self._sensor_part = _XY_IN_XYZ if self.dim == 2 else _ALL
 
     def _init_state(self, mean: Array, covariance: Array) -> None:
         if self._ref.shape[0] == 0:
