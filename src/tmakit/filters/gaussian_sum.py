@@ -16,6 +16,7 @@ from types import ModuleType
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.arrays import IntArray
 from ..core.linalg import solve_spd
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
@@ -56,7 +57,7 @@ class SumStep:
     weights: Array  # (M,), normalised
     means: Array  # (M, n) (m, m/s)
     covariances: Array  # (M, n, n)
-    origins: Array  # (M,) int: the component of the previous step each descends from (-1: none)
+    origins: IntArray  # (M,): the component of the previous step each descends from (-1: none)
 
 
 def check_component(component: str) -> None:

@@ -43,7 +43,7 @@ from .general import DynamicsCache, finite
 _MP_IN_MSC = [0, 2, 4, 5]
 _XY_IN_XYZ = [0, 1, 3, 4]
 _ALL = list(range(6))
-_TAKE = {4: (np.array(_XY_IN_XYZ), np.ix_(_XY_IN_XYZ, _MP_IN_MSC)),
+_TAKE: dict[int, tuple[Any, Any]] = {4: (np.array(_XY_IN_XYZ), np.ix_(_XY_IN_XYZ, _MP_IN_MSC)),
          6: (slice(None), slice(None))}
 #: Nodes of the prior's moments (:meth:`ModifiedPolarEKF.from_first_bearing`): log-range,
 #: height, bearing.

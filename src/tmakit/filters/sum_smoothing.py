@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.arrays import Array
+from ..core.arrays import Array, IntArray
 from ..motion.dynamics import NearlyConstantVelocity
 from .gaussian_sum import SumStep, mixture_moments
 
@@ -47,7 +47,7 @@ def _lineage_back(steps: list[SumStep], dynamics: NearlyConstantVelocity, start:
     """Smooth the sum of step ``stop`` back along its lineage to ``start`` (inclusive)."""
     last = steps[stop]
     xs, ps = last.means.copy(), last.covariances.copy()
-    idx = np.arange(last.weights.shape[0])
+    idx: IntArray = np.arange(last.weights.shape[0])
     out = [SumStep(last.time, last.weights, xs, ps, idx)]
     for k in range(stop - 1, start - 1, -1):
         parent = steps[k + 1].origins[idx]
