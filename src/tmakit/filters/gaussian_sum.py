@@ -349,8 +349,8 @@ class GaussianSumFilter(TrackingFilter):
             for j in range(k):
                 c = int(counts[j])
                 w = kept[0][j, :c]
-                self.history.append(SumStep(float(times[j]), w / w.sum(), kept[1][j, :c],
-                                            kept[2][j, :c], kept[3][j, :c]))
+                self.history.append(SumStep(float(times[j]), w / w.sum(), kept[1][j, :c].copy(),
+                                            kept[2][j, :c].copy(), kept[3][j, :c].copy()))
         self._count, self.time = int(count), float(t)
         self.skipped_updates += int(skipped_now)
         self._moments = None
