@@ -146,3 +146,20 @@ def test_command_smooths_the_sum_per_component(tmp_path):
     data = json.loads(out.output)
     assert data["smoother"] == "gaussian-sum fixed-lag 4"
     assert len(data["smoothed"]) == len(data["estimate"])
+
+
+def test_three_d_sums_smooth_through_the_general_path():
+    """Bearings and elevations in 3-D take the Python path; its lineage smooths the same way:
+    the last row is the filtered sum, and the first bearing's position is known far better
+    with the whole track than from the prior alone."""
+    from modified_spherical import SCENARIO  # benchmarks/ (tests/conftest.py)
+
+    meas = tk.load_scenario(SCENARIO).simulate(rng=4)
+    prior = tk.BearingPrior(5000.0, 60_000.0, 300.0)
+    tr = tk.track(meas, "gsf", dim=3, q_density=1e-2, bearing_prior=prior,
+                  settings={"history": True})
+    sm = smooth(tr)
+    assert sm.extra.options["smoother"] == "gaussian-sum rts"
+    assert sm.extra.history[0].means.shape[1] == 6
+    assert np.allclose(sm.states[-1], tr.states[-1], rtol=1e-9, atol=1e-6)
+    assert np.trace(sm.covariances[0][:3, :3]) < 0.05 * np.trace(tr.covariances[0][:3, :3])
