@@ -262,7 +262,7 @@ def test_command_starts_at_the_first_bearing_and_smooths(obs):
     data = json.loads(result.output)
     assert data["start"]["method"] == "first-bearing" and data["time"][0] == 0.0
     assert data["start"]["prior"]["given"] == ["range", "speed"]
-    assert data["q_density"] == [9e-6, 9e-6] and data["smoother"] == "rts"
+    assert data["q_density"] == [9e-6, 9e-6] and data["smoother"] == "gaussian-sum rts"
     assert len(data["smoothed"]) == len(data["estimate"]) == len(data["components"]) + 1
     table = runner.invoke(app, ["track", str(obs), "--filter", "gsf", "--rows", "3"])
     assert table.exit_code == 0, table.output

@@ -556,6 +556,8 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
         if filter_name != "mmpf":
             return {"history": True} if smooth and filter_name == "pf" else {}
     out: dict[str, object] = {} if filter_name == "mmpf" else {"component": component}
+    if smooth and filter_name == "gsf":
+        out["history"] = True  # its sums, for the smoother per component
     if model_q is not None:
         try:
             out["model_q"] = [float(v) for v in model_q.split(",")]

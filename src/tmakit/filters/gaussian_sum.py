@@ -10,11 +10,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 from types import ModuleType
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.arrays import IntArray
 from ..core.linalg import solve_spd
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
@@ -45,6 +47,17 @@ MERGE = 0.25
 CAPACITY = 48
 #: Linearisations per update of EKF components (the iterated EKF; docs/tracking.md).
 ITERATIONS = 5
+
+
+@dataclass(frozen=True)
+class SumStep:
+    """The Gaussian sum after one update, and where each of its components came from."""
+
+    time: float  # (s)
+    weights: Array  # (M,), normalised
+    means: Array  # (M, n) (m, m/s)
+    covariances: Array  # (M, n, n)
+    origins: IntArray  # (M,): the component of the previous step each descends from (-1: none)
 
 
 def check_component(component: str) -> None:
@@ -117,6 +130,10 @@ class GaussianSumFilter(TrackingFilter):
         Merge components whose means lie within this squared Mahalanobis distance (0: never).
     capacity : int, optional
         Most components held at once (>= 1).
+    history : bool, optional
+        Keep the sum after each update with its components' lineage (``track.extra.history``,
+        a list of :class:`SumStep`), for the Gaussian-sum smoother
+        (:func:`tmakit.filters.smooth`).
     q, dynamics, options, nuisance
         As for :class:`~tmakit.filters.TrackingFilter`.
 
@@ -136,7 +153,8 @@ class GaussianSumFilter(TrackingFilter):
                  component: str = "ekf", iterations: int | None = None,
                  split_threshold: float = SPLIT_THRESHOLD,
                  prune: float = PRUNE, merge: float = MERGE, capacity: int = CAPACITY,
-                 q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
+                 history: bool = False, q: ProcessNoise = 0.0,
+                 dynamics: NearlyConstantVelocity | None = None,
                  options: KindOptions | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
         check_component(component)
@@ -151,6 +169,8 @@ class GaussianSumFilter(TrackingFilter):
         self.prune = float(prune)
         self.merge = float(merge)
         self.capacity = int(capacity)
+        #: The sum after each update (with ``history=True``), for the smoother.
+        self.history: list[SumStep] | None = [] if history else None
         super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
                          nuisance=nuisance)
         if type(self.dynamics) is not NearlyConstantVelocity:
@@ -181,8 +201,20 @@ class GaussianSumFilter(TrackingFilter):
         self._w[:count] = weights / np.sum(weights)
         self._m[:count] = means
         self._p[:count] = covs
+        self._origin = np.full(cap, -1, dtype=np.int64)
         self._count = count
         self._moments: tuple[Array, Array] | None = None
+        if self.history is not None:
+            self.history.clear()
+            self._keep()
+
+    def _keep(self) -> None:
+        """Record the sum (with ``history``) after an update or at the start."""
+        if self.history is not None:
+            c = self._count
+            self.history.append(SumStep(self.time, self._w[:c] / np.sum(self._w[:c]),
+                                        self._m[:c].copy(), self._p[:c].copy(),
+                                        self._origin[:c].copy()))
 
     @classmethod
     def from_mixture(cls, weights: ArrayLike, means: ArrayLike, covariances: ArrayLike,
@@ -257,10 +289,17 @@ class GaussianSumFilter(TrackingFilter):
         self._moments = None
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
+        self._origin[:self._count] = np.arange(self._count)
+        info = self._update_sum(group)
+        self._keep()
+        return info
+
+    def _update_sum(self, group: MeasurementGroup) -> UpdateInfo:
         sensor = np.zeros(3)
         sensor[:self.dim] = group.sensor_state[0, :self.dim]
-        self._count = _sums().split_sum(self._w, self._m, self._p, self._count, sensor, self.dim,
-                                        self.split_threshold, self._w.shape[0])
+        self._count = _sums().split_sum(self._w, self._m, self._p, self._origin, self._count,
+                                        sensor, self.dim, self.split_threshold,
+                                        self._w.shape[0])
         c = self._count
         log_l, nis, dof = update_components(self._unit, group, self._m, self._p, self._w[:c])
         log_w = np.full(c, -np.inf)
@@ -272,7 +311,8 @@ class GaussianSumFilter(TrackingFilter):
         w = np.exp(log_w - top)
         total = float(np.sum(w))
         self._w[:c] = w
-        self._count = _sums().reduce_sum(self._w, self._m, self._p, c, self.prune, self.merge)
+        self._count = _sums().reduce_sum(self._w, self._m, self._p, self._origin, c,
+                                         self.prune, self.merge)
         self._moments = None
         self.component_counts.append(self._count)
         return UpdateInfo(nis, dof, top + math.log(total))
@@ -296,11 +336,21 @@ class GaussianSumFilter(TrackingFilter):
         qa, qd = self.dynamics.axes()
         means, covs = np.zeros((k, 4)), np.zeros((k, 4, 4))
         nis, lls, counts = np.zeros(k), np.zeros(k), np.zeros(k)
+        cap = self._w.shape[0] if self.history is not None else 0
+        kept = (np.zeros((k if cap else 0, cap)), np.zeros((k if cap else 0, cap, 4)),
+                np.zeros((k if cap else 0, cap, 4, 4)),
+                np.zeros((k if cap else 0, cap), dtype=np.int64))
         count, t, skipped_now = _sums().gsf_bearing_2d(
-            self._w, self._m, self._p, self._count, self.time, times, zs,
+            self._w, self._m, self._p, self._origin, self._count, self.time, times, zs,
             prepared.sigmas[start:] ** 2, np.ascontiguousarray(prepared.sensor_state[start:, :2]),
             qa, qd, sp, np.array([self.split_threshold, self.prune, self.merge, self.iterations]),
-            means, covs, nis, lls, counts)
+            means, covs, nis, lls, counts, kept)
+        if self.history is not None:
+            for j in range(k):
+                c = int(counts[j])
+                w = kept[0][j, :c]
+                self.history.append(SumStep(float(times[j]), w / w.sum(), kept[1][j, :c].copy(),
+                                            kept[2][j, :c].copy(), kept[3][j, :c].copy()))
         self._count, self.time = int(count), float(t)
         self.skipped_updates += int(skipped_now)
         self._moments = None
@@ -313,8 +363,9 @@ class GaussianSumFilter(TrackingFilter):
     def _track(self, rec: Recorder) -> Track:
         track = super()._track(rec)
         track.extra.components = list(self.component_counts)
+        track.extra.history = self.history
         return track
 
 
 __all__ = ["CAPACITY", "COMPONENTS", "ITERATIONS", "MERGE", "PRUNE", "SPLIT_THRESHOLD",
-           "GaussianSumFilter"]
+           "GaussianSumFilter", "SumStep"]

@@ -15,7 +15,7 @@ import math
 import numba
 import numpy as np
 
-from ..core.arrays import Array, BoolArray
+from ..core.arrays import Array, BoolArray, IntArray
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 _inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -65,9 +65,9 @@ def _principal(p: Array, i: int, dim: int) -> tuple[float, Array]:  # pragma: no
 
 
 @_jit
-def split_sum(w: Array, m: Array, p: Array, count: int, sensor: Array, dim: int,
-              threshold: float, capacity: int) -> int:  # pragma: no cover - compiled
-    """Split the components too spread for their range."""
+def split_sum(w: Array, m: Array, p: Array, origin: IntArray, count: int, sensor: Array,
+              dim: int, threshold: float, capacity: int) -> int:  # pragma: no cover - compiled
+    """Split the components too spread for their range (children keep their ``origin``)."""
     if threshold <= 0.0 or count + 2 > capacity:
         return count
     order = np.argsort(-w[:count])
@@ -100,6 +100,7 @@ def split_sum(w: Array, m: Array, p: Array, count: int, sensor: Array, dim: int,
             j = count + side
             sign = 2.0 * side - 1.0
             w[j] = SPLIT_WEIGHT * wi
+            origin[j] = origin[i]
             for r in range(n):
                 m[j, r] = m[i, r] + sign * SPLIT_OFFSET * s[r]
                 for c in range(n):
@@ -110,7 +111,8 @@ def split_sum(w: Array, m: Array, p: Array, count: int, sensor: Array, dim: int,
 
 
 @_inline
-def _prune(w: Array, m: Array, p: Array, count: int, prune: float) -> int:  # pragma: no cover
+def _prune(w: Array, m: Array, p: Array, origin: IntArray, count: int,
+           prune: float) -> int:  # pragma: no cover - compiled
     """Drop the components lighter than ``prune`` of the heaviest; give the new count."""
     top = 0.0
     for i in range(count):
@@ -122,19 +124,25 @@ def _prune(w: Array, m: Array, p: Array, count: int, prune: float) -> int:  # pr
                 w[keep] = w[i]
                 m[keep, :] = m[i, :]
                 p[keep, :, :] = p[i, :, :]
+                origin[keep] = origin[i]
             keep += 1
     return keep
 
 
 @_inline
-def _merge(w: Array, m: Array, p: Array, count: int, merge: float) -> int:  # pragma: no cover
-    """Merge, heaviest first, the components near each (Salmond 1990); give the new count."""
+def _merge(w: Array, m: Array, p: Array, origin: IntArray, count: int,
+           merge: float) -> int:  # pragma: no cover - compiled
+    """Merge, heaviest first, the components near each (Salmond 1990); give the new count.
+
+    A merged component's ``origin`` is its heaviest member's.
+    """
     n = m.shape[1]
     order = np.argsort(-w[:count])
     used = np.zeros(count, dtype=np.bool_)
     nw = np.empty(count)
     nm = np.empty((count, n))
     npp = np.empty((count, n, n))
+    norigin = np.empty(count, dtype=origin.dtype)
     out = 0
     for oi in range(count):
         i = order[oi]
@@ -163,16 +171,18 @@ def _merge(w: Array, m: Array, p: Array, count: int, merge: float) -> int:  # pr
         nw[out] = wt
         nm[out] = mean
         npp[out] = 0.5 * (cov + cov.T) / wt
+        norigin[out] = origin[i]
         out += 1
     for i in range(out):
         w[i] = nw[i]
         m[i] = nm[i]
         p[i] = npp[i]
+        origin[i] = norigin[i]
     return out
 
 
 @_jit
-def reduce_sum(w: Array, m: Array, p: Array, count: int, prune: float,
+def reduce_sum(w: Array, m: Array, p: Array, origin: IntArray, count: int, prune: float,
                merge: float) -> int:  # pragma: no cover - compiled
     """Prune, merge and normalise."""
     total = 0.0
@@ -180,9 +190,9 @@ def reduce_sum(w: Array, m: Array, p: Array, count: int, prune: float,
         total += w[i]
     if not total > 0.0:
         return 0
-    count = _prune(w, m, p, count, prune)
+    count = _prune(w, m, p, origin, count, prune)
     if merge > 0.0 and count > 1:
-        count = _merge(w, m, p, count, merge)
+        count = _merge(w, m, p, origin, count, merge)
     total = 0.0
     for i in range(count):
         total += w[i]
@@ -343,12 +353,17 @@ def _reweight(w: Array, nus: Array, ss: Array, oks: BoolArray,
 
 
 @_jit
-def gsf_bearing_2d(w: Array, m: Array, p: Array, count: int, time: float, times: Array,
-                   bearings: Array, variances: Array, sensors: Array, qa: Array, qd: Array,
-                   sigma_points: Array, settings: Array, out_mean: Array, out_cov: Array,
-                   out_nis: Array, out_ll: Array, out_count: Array
+def gsf_bearing_2d(w: Array, m: Array, p: Array, origin: IntArray, count: int, time: float,
+                   times: Array, bearings: Array, variances: Array, sensors: Array, qa: Array,
+                   qd: Array, sigma_points: Array, settings: Array, out_mean: Array,
+                   out_cov: Array, out_nis: Array, out_ll: Array, out_count: Array,
+                   kept: tuple[Array, Array, Array, IntArray]
                    ) -> tuple[int, float, int]:  # pragma: no cover - compiled
-    """Run the Gaussian-sum filter over single bearings in 2-D, one call for a whole track."""
+    """Run the Gaussian-sum filter over single bearings in 2-D, one call for a whole track.
+
+    ``kept`` (weights, means, covariances, origins; each ``(K, capacity, ...)``, or empty)
+    receives the sum after each update, its components' origins indexing the previous one's.
+    """
     capacity = w.shape[0]
     threshold, prune, merge, iterations = settings[0], settings[1], settings[2], int(settings[3])
     ekf = sigma_points.shape[0] == 0
@@ -365,7 +380,9 @@ def gsf_bearing_2d(w: Array, m: Array, p: Array, count: int, time: float, times:
             t = times[k]
         sensor[0] = sensors[k, 0]
         sensor[1] = sensors[k, 1]
-        count = split_sum(w, m, p, count, sensor, 2, threshold, capacity)
+        for i in range(count):
+            origin[i] = i
+        count = split_sum(w, m, p, origin, count, sensor, 2, threshold, capacity)
         z, var = bearings[k], variances[k]
         for i in range(count):
             if ekf:
@@ -377,9 +394,14 @@ def gsf_bearing_2d(w: Array, m: Array, p: Array, count: int, time: float, times:
         ok, ll, nis = _reweight(w, nus, ss, oks, count)
         out_ll[k], out_nis[k] = ll, nis
         if ok:
-            count = reduce_sum(w, m, p, count, prune, merge)
+            count = reduce_sum(w, m, p, origin, count, prune, merge)
         else:
             skipped += 1
         sum_moments(w, m, p, count, out_mean[k], out_cov[k])
         out_count[k] = count
+        if kept[0].shape[0]:
+            kept[0][k, :count] = w[:count]
+            kept[1][k, :count] = m[:count]
+            kept[2][k, :count] = p[:count]
+            kept[3][k, :count] = origin[:count]
     return count, t, skipped

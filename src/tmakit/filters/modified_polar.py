@@ -1,19 +1,31 @@
-"""The EKF in modified polar coordinates for 2-D tracking from bearings (Aidala & Hammel 1983).
+"""The EKF in modified polar (2-D) and modified spherical (3-D) coordinates about the sensor.
 
-The state relative to the sensor is ``[beta, beta_dot, r_dot / r, 1 / r]`` (bearing clockwise
-from North, rad; rad/s; 1/s; 1/m): the bearing is a state, and 1/r, unobservable before the
-own ship manoeuvres, is decoupled from the rest (Aidala & Hammel 1983, eq. 12).
+The state relative to the sensor is, in 2-D, ``[beta, beta_dot, r_dot / r, 1 / r]`` (Aidala &
+Hammel 1983, eq. 12) and, in 3-D, ``[beta, epsilon, omega, epsilon_dot, r_dot / r, 1 / r]``
+with ``omega = beta_dot cos(epsilon)`` (the modified spherical coordinates of Stallard 1991
+and Mallick et al. 2012, ordered as the 2-D state: angles, angle rates, range rate over
+range, inverse range).  Bearing ``beta`` clockwise from North, elevation ``epsilon`` above the
+horizontal (rad; rad/s; 1/s; 1/m).  The angles are states, and ``1 / r``, unobservable before
+the own ship manoeuvres, is decoupled from the rest.  With ``u`` the line of sight and
+``e_beta = d u / d beta / cos(epsilon)``, ``e_eps = d u / d epsilon`` its unit normals, the
+relative position is ``u / (1/r)`` and the relative velocity
+``(r_dot/r u + omega e_beta + epsilon_dot e_eps) / (1/r)``; the 2-D form is the 3-D one at
+``epsilon = epsilon_dot = 0``, and one code path serves both.
 
 References
 ----------
 Aidala & Hammel (1983), "Utilization of modified polar coordinates for bearings-only
-tracking", IEEE Trans. Autom. Control 28(3).
+tracking", IEEE Trans. Autom. Control 28(3); Stallard (1991), "Angle-only tracking filter in
+modified spherical coordinates", J. Guid. Control Dyn. 14(3); Mallick, Morelande, Mihaylova,
+Arulampalam & Yan (2012), "Angle-only filtering in three dimensions", in *Integrated Tracking,
+Classification, and Sensor Management*, Wiley, ch. 1.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from functools import cache
 from typing import Any
 
 import numpy as np
@@ -26,74 +38,218 @@ from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import gaussian_update
 from .general import DynamicsCache, finite
 
+#: The 2-D state's places in the 3-D one, and the Cartesian 2-D state's in ``[x, y, z, vx, vy,
+#: vz]``.
+_MP_IN_MSC = [0, 2, 4, 5]
+_XY_IN_XYZ = [0, 1, 3, 4]
+_ALL = list(range(6))
+_TAKE: dict[int, tuple[Any, Any]] = {4: (np.array(_XY_IN_XYZ), np.ix_(_XY_IN_XYZ, _MP_IN_MSC)),
+         6: (slice(None), slice(None))}
+#: Nodes of the prior's moments (:meth:`ModifiedPolarEKF.from_first_bearing`): log-range,
+#: height, bearing.
+_NODES = (48, 12, 5)
+
+
+@cache
+def _nodes(kind: str, count: int) -> tuple[Array, Array]:
+    """Gauss-Legendre (on [-1, 1]) or Gauss-Hermite (standard normal) nodes and weights."""
+    if kind == "legendre":
+        x, w = np.polynomial.legendre.leggauss(count)
+        return x, w / 2.0
+    x, w = np.polynomial.hermite_e.hermegauss(count)
+    return x, w / math.sqrt(2.0 * math.pi)
+
+
+def _line_of_sight(b: ArrayLike, e: ArrayLike) -> tuple[Array, Array, Array]:
+    """Give ``u``, ``e_beta``, ``e_eps`` ``(..., 3)`` at bearings ``b`` and elevations ``e``."""
+    b, e = np.broadcast_arrays(np.asarray(b, dtype=float), np.asarray(e, dtype=float))
+    sb, cb, se, ce = np.sin(b), np.cos(b), np.sin(e), np.cos(e)
+    return (np.stack([sb * ce, cb * ce, se], -1), np.stack([cb, -sb, np.zeros_like(b)], -1),
+            np.stack([-sb * se, -cb * se, ce], -1))
+
+
+def _msc_to_cartesian(msc: list[float], keep: list[int]) -> tuple[Array, Array]:
+    """Give rows/columns ``keep`` of the relative Cartesian state of ``msc`` and ``d rel / d msc``.
+
+    Plain floats: the filter's step calls it several times.
+    """
+    b, e, w, ed, g, rho = msc
+    sb, cb, se, ce = math.sin(b), math.cos(b), math.sin(e), math.cos(e)
+    r = 1.0 / rho
+    u0, u1, u2 = sb * ce * r, cb * ce * r, se * r  # u, e_beta, e_eps: the frame, times r
+    b0, b1 = cb * r, -sb * r
+    e0, e1, e2 = -sb * se * r, -cb * se * r, ce * r
+    v0, v1, v2 = g * u0 + w * b0 + ed * e0, g * u1 + w * b1 + ed * e1, g * u2 + ed * e2
+    turn = g * ce - ed * se  # d u / d beta = cos(e) e_beta; d e_eps / d beta = -sin(e) e_beta
+    jac = np.array([
+        [ce * b0, e0, 0.0, 0.0, 0.0, -u0 * r],
+        [ce * b1, e1, 0.0, 0.0, 0.0, -u1 * r],
+        [0.0, e2, 0.0, 0.0, 0.0, -u2 * r],
+        [turn * b0 - w * sb * r, g * e0 - ed * u0, b0, e0, u0, -v0 * r],
+        [turn * b1 - w * cb * r, g * e1 - ed * u1, b1, e1, u1, -v1 * r],
+        [0.0, g * e2 - ed * u2, 0.0, e2, u2, -v2 * r]])
+    rows, columns = _TAKE[len(keep)]
+    return np.array([u0, u1, u2, v0, v1, v2])[rows], jac[columns]
+
 
 def from_modified_polar(mp: ArrayLike) -> tuple[Array, Array]:
-    """Give the relative Cartesian state of a modified polar state and ``d rel / d mp`` (eq. 12)."""
-    b, bd, rr, ir = (float(v) for v in np.asarray(mp, dtype=float))
-    s, c = math.sin(b), math.cos(b)
-    rel = np.array([s, c, rr * s + bd * c, rr * c - bd * s]) / ir
-    jac = np.array([[c, 0.0, 0.0, 0.0], [-s, 0.0, 0.0, 0.0],
-                    [rr * c - bd * s, c, s, 0.0], [-rr * s - bd * c, -s, c, 0.0]]) / ir
-    jac[:, 3] = -rel / ir
-    return rel, jac
+    """Give the relative Cartesian state of a modified polar (4,) or spherical (6,) state.
+
+    Parameters
+    ----------
+    mp : array_like
+        ``[beta, beta_dot, r_dot/r, 1/r]`` (2-D) or ``[beta, epsilon, omega, epsilon_dot,
+        r_dot/r, 1/r]`` (3-D; rad, rad/s, 1/s, 1/m).
+
+    Returns
+    -------
+    rel : numpy.ndarray
+        ``[x, y, vx, vy]`` or ``[x, y, z, vx, vy, vz]`` relative to the sensor (m, m/s).
+    jacobian : numpy.ndarray
+        ``d rel / d mp`` (analytic).
+    """
+    values = np.asarray(mp, dtype=float).tolist()
+    if len(values) == 6:
+        return _msc_to_cartesian(values, _ALL)
+    b, w, g, rho = values
+    return _msc_to_cartesian([b, 0.0, w, 0.0, g, rho], _XY_IN_XYZ)
 
 
 def to_modified_polar(rel: ArrayLike) -> Array:
-    """Give the modified polar state of a relative Cartesian state ``[x, y, vx, vy]``."""
-    x, y, vx, vy = (float(v) for v in np.asarray(rel, dtype=float))
-    r2 = x * x + y * y
-    return np.array([math.atan2(x, y), (vx * y - vy * x) / r2, (x * vx + y * vy) / r2,
-                     1.0 / math.sqrt(r2)])
+    """Give the modified polar (2-D) or spherical (3-D) state of a relative Cartesian state.
+
+    Parameters
+    ----------
+    rel : array_like
+        ``[x, y, vx, vy]`` or ``[x, y, z, vx, vy, vz]`` relative to the sensor (m, m/s).
+
+    Returns
+    -------
+    numpy.ndarray
+        The state of :func:`from_modified_polar`.
+    """
+    values = np.asarray(rel, dtype=float).tolist()
+    flat = len(values) == 4
+    x, y, z, vx, vy, vz = ((values[0], values[1], 0.0, values[2], values[3], 0.0) if flat
+                           else values)
+    h2 = x * x + y * y
+    r2 = h2 + z * z
+    r, h = math.sqrt(r2), math.sqrt(h2)
+    b, e = math.atan2(x, y), math.atan2(z, h)
+    sb, cb, se, ce = math.sin(b), math.cos(b), math.sin(e), math.cos(e)
+    omega = (vx * cb - vy * sb) / r  # v . e_beta / r
+    if flat:
+        return np.array([b, omega, (x * vx + y * vy) / r2, 1.0 / r])
+    return np.array([b, e, omega, (ce * vz - se * (vx * sb + vy * cb)) / r,
+                     (x * vx + y * vy + z * vz) / r2, 1.0 / r])
+
+
+def prior_moments(prior: BearingPrior, first: FirstBearing, dim: int) -> tuple[Array, Array]:
+    """Give the mean and covariance of the bearing prior in modified polar/spherical terms.
+
+    By quadrature: Gauss-Legendre over the log-uniform range and the uniform height,
+    Gauss-Hermite over the bearing's normal error; given the position, the rates are linear in
+    the relative velocity (``[r_dot, omega, epsilon_dot] / r = [u, e_beta, e_eps]^T v / r``), so
+    their conditional moments are exact.
+
+    Parameters
+    ----------
+    prior : BearingPrior
+        Range, speed (and height) intervals.
+    first : FirstBearing
+        The first bearing, about whose sensor the state is held.
+    dim : int
+        2 or 3.
+
+    Returns
+    -------
+    mean, covariance : numpy.ndarray
+        ``(2 dim,)`` and ``(2 dim, 2 dim)``.
+    """
+    leg = _nodes("legendre", _NODES[0])
+    log_r = math.log(prior.range_min) + 0.5 * (leg[0] + 1.0) * math.log(prior.range_max
+                                                                       / prior.range_min)
+    lo, hi = prior.height if dim == 3 else (first.sensor[2], first.sensor[2])
+    hl = _nodes("legendre", _NODES[1]) if hi > lo else (np.zeros(1), np.ones(1))
+    heights = lo + 0.5 * (hl[0] + 1.0) * (hi - lo)
+    her = _nodes("hermite", _NODES[2])
+    bearings = first.bearing + first.sigma * her[0]
+    weights = leg[1][:, None, None] * hl[1][None, :, None] * her[1][None, None, :]
+    velocity = prior.gaussian(first, dim)[1][dim:, dim:]
+    v_cov = np.zeros((3, 3))
+    v_cov[:dim, :dim] = velocity
+    horizontal = np.exp(log_r)[:, None, None]
+    dz = (heights - first.sensor[2])[None, :, None]
+    e = np.broadcast_to(np.arctan2(dz, horizontal), weights.shape).reshape(-1)
+    b = np.broadcast_to(bearings[None, None, :], weights.shape).reshape(-1)
+    rho = np.broadcast_to(1.0 / np.hypot(horizontal, dz), weights.shape).reshape(-1)
+    frame = np.stack(_line_of_sight(b, e), -1)  # columns u, e_beta, e_eps
+    w = weights.reshape(-1)
+    m = np.zeros((w.shape[0], 6))
+    m[:, 0], m[:, 1], m[:, 5] = b, e, rho
+    rates = [4, 2, 3]  # r_dot/r, omega, epsilon_dot: along u, e_beta, e_eps
+    m[:, rates] = -rho[:, None] * (first.sensor[3:] @ frame)
+    mean = w @ m
+    d = m - mean
+    cov = (d.T * w) @ d
+    given_position = np.swapaxes(frame, 1, 2) @ v_cov @ frame
+    cov[np.ix_(rates, rates)] += np.tensordot(w * rho**2, given_position, 1)
+    keep = _MP_IN_MSC if dim == 2 else _ALL
+    return mean[keep], 0.5 * (cov + cov.T)[np.ix_(keep, keep)]
 
 
 class ModifiedPolarEKF(TrackingFilter):
-    """EKF in modified polar coordinates about the sensor (2-D; Aidala & Hammel 1983).
+    """EKF in modified polar (2-D) or modified spherical (3-D) coordinates about the sensor.
 
     The estimate is held relative to a reference (the last update's sensor, moving at its
-    velocity); the prediction, and the move of the reference to each update's sensor, are the
-    exact nonlinear maps through Cartesian coordinates with their Jacobians.  :attr:`state`
-    and :attr:`covariance` are Cartesian (the covariance through the transform's Jacobian).
+    velocity); the prediction (constant velocity of target and reference: the relative state
+    moves by ``Phi``), and the move of the reference to each update's sensor (the own ship's
+    acceleration since the last update), are exact maps through Cartesian coordinates, the
+    covariance carried by their Jacobians.  :attr:`state` and :attr:`covariance` are
+    Cartesian (the covariance through the transform's Jacobian).
 
     Parameters
     ----------
     mean, covariance, time
-        A Cartesian prior, as for :class:`~tmakit.filters.TrackingFilter` (2-D only);
-        :meth:`from_first_bearing` starts from the bearing prior in modified polar terms.
+        A Cartesian prior, as for :class:`~tmakit.filters.TrackingFilter`;
+        :meth:`from_first_bearing` starts from the bearing prior in these coordinates.
     origin : array_like, optional
-        The reference ``[x, y, vx, vy]`` at the prior's time (m, m/s); each update moves it
-        to its sensor.
+        The reference ``[x, y, (z), vx, vy, (vz)]`` at the prior's time (m, m/s; default the
+        ENU origin at rest); each update moves it to its sensor.
     q, dynamics, options, nuisance
         As for :class:`~tmakit.filters.TrackingFilter`.
 
     Raises
     ------
     ValueError
-        If the prior is not 2-D or its mean lies at the origin.
+        If the prior's position is at the origin, or the origin's size is not the state's.
 
     References
     ----------
-    Aidala & Hammel (1983).
+    Aidala & Hammel (1983); Stallard (1991); Mallick et al. (2012).
     """
 
     name = "mpekf"
-    dims = (2,)
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
-                 origin: ArrayLike = (0.0, 0.0, 0.0, 0.0), q: ProcessNoise = 0.0,
+                 origin: ArrayLike | None = None, q: ProcessNoise = 0.0,
                  dynamics: NearlyConstantVelocity | None = None,
                  options: KindOptions | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
-        self._ref = np.asarray(origin, dtype=float).reshape(4)
+        self._ref = np.zeros(0) if origin is None else np.asarray(origin, dtype=float).ravel()
         super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
                          nuisance=nuisance)
         self._cache = DynamicsCache(self.dynamics)
+        self._sensor_part = _XY_IN_XYZ if self.dim == 2 else _ALL
 
     def _init_state(self, mean: Array, covariance: Array) -> None:
-        if mean.shape[0] != 4:
-            raise ValueError("mpekf (modified polar coordinates) tracks in 2-D only; the "
-                             "state is 3-D: use ekf, ukf, ckf, gsf or pf")
+        if self._ref.shape[0] == 0:
+            self._ref = np.zeros(mean.shape[0])
+        if self._ref.shape != mean.shape:
+            raise ValueError(f"mpekf: the origin has {self._ref.shape[0]} components; the "
+                             f"state has {mean.shape[0]}")
         rel = mean - self._ref
-        if not np.hypot(rel[0], rel[1]) > 0:
+        if not np.linalg.norm(rel[:self.dim]) > 0:
             raise ValueError("mpekf: the prior's position is at its origin (range 0)")
         self._mp = to_modified_polar(rel)
         g = np.linalg.inv(from_modified_polar(self._mp)[1])
@@ -102,49 +258,32 @@ class ModifiedPolarEKF(TrackingFilter):
     @classmethod
     def from_first_bearing(cls, prior: BearingPrior, first: FirstBearing, dim: int = 2,
                            **kwargs: Any) -> ModifiedPolarEKF:
-        """Start at the first bearing with the prior's exact modified polar moments.
+        """Start at the first bearing with the prior's moments in these coordinates.
 
-        ``1 / r`` has the moments of the log-uniform range; ``beta_dot`` and ``r_dot / r``
-        those of the relative velocity over the range.
-
-        Raises
-        ------
-        ValueError
-            If ``dim`` is not 2.
+        ``1 / r`` has the moments of the log-uniform range (and, in 3-D, the uniform height);
+        the rates those of the relative velocity over the range (:func:`prior_moments`).
         """
-        if dim != 2:
-            raise ValueError("mpekf (modified polar coordinates) tracks in 2-D only; the "
-                             "data are 3-D: use ekf, ukf, ckf, gsf or pf")
-        a, b = prior.range_min, prior.range_max
-        span = math.log(b / a)
-        m1, m2 = (1 / a - 1 / b) / span, (1 / a**2 - 1 / b**2) / (2 * span)  # E[1/r], E[1/r^2]
-        sb, cb = math.sin(first.bearing), math.cos(first.bearing)
-        vs = first.sensor[3:5]
-        c = np.array([-(vs[0] * cb - vs[1] * sb), -(vs[0] * sb + vs[1] * cb), 1.0])
-        origin = first.sensor[[0, 1, 3, 4]]
-        filt = cls(origin + np.array([sb, cb, 0, 0]) / m1, np.eye(4), first.time,
+        mean, cov = prior_moments(prior, first, dim)
+        origin = first.sensor[_XY_IN_XYZ if dim == 2 else slice(None)]
+        filt = cls(origin + from_modified_polar(mean)[0], np.eye(2 * dim), first.time,
                    origin=origin, **kwargs)
-        filt._mp = np.array([first.bearing, c[0] * m1, c[1] * m1, m1])
-        filt._p = np.zeros((4, 4))
-        filt._p[0, 0] = first.sigma**2
-        filt._p[1:, 1:] = np.outer(c, c) * (m2 - m1 * m1) \
-            + np.diag([1.0, 1.0, 0.0]) * prior.speed_max**2 / 4.0 * m2
+        filt._mp, filt._p = mean, cov
         return filt
 
     @property
     def state(self) -> Array:
-        """The Cartesian state ``(4,)`` at :attr:`time` (m, m/s)."""
+        """The Cartesian state ``(n,)`` at :attr:`time` (m, m/s)."""
         return self._ref + from_modified_polar(self._mp)[0]
 
     @property
     def covariance(self) -> Array:
-        """Its covariance ``(4, 4)``, through the transform's Jacobian."""
+        """Its covariance ``(n, n)``, through the transform's Jacobian."""
         j = from_modified_polar(self._mp)[1]
         return j @ self._p @ j.T
 
     @property
     def modified_polar(self) -> tuple[Array, Array]:
-        """The modified polar mean ``(4,)`` and covariance ``(4, 4)``, about the reference."""
+        """The modified polar/spherical mean ``(n,)`` and covariance, about the reference."""
         return self._mp.copy(), self._p.copy()
 
     def _move(self, rel: Array, a_pre: Array, q: Array | None = None) -> None:
@@ -164,7 +303,7 @@ class ModifiedPolarEKF(TrackingFilter):
         self._move(phi @ rel, phi @ j, q)
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
-        sensor = np.asarray(group.sensor_state).reshape(-1, 6)[0, [0, 1, 3, 4]]
+        sensor = np.asarray(group.sensor_state).reshape(-1, 6)[0, self._sensor_part]
         rel, j = from_modified_polar(self._mp)
         self._move(rel + self._ref - sensor, j)
         self._ref = sensor
@@ -175,7 +314,7 @@ class ModifiedPolarEKF(TrackingFilter):
         if not finite(y, h):
             return self._skip()
         mp, p, info = gaussian_update(self._mp, self._p, y, h, group.covariance)
-        if not mp[3] > 0:  # 1/r <= 0: past the sensor; keep the prediction
+        if not mp[-1] > 0:  # 1/r <= 0: past the sensor; keep the prediction
             return self._skip()
         mp[0] = math.remainder(mp[0], 2 * math.pi)
         self._mp, self._p = mp, p

@@ -1,7 +1,9 @@
 """Smoothers: every state of a track conditioned on the data after it too.
 
-:func:`smooth` runs the Rauch-Tung-Striebel smoother on a Gaussian track (on the moments of a
-Gaussian sum), or with ``lag=N`` the fixed-lag smoother; on a particle track that kept its clouds,
+:func:`smooth` runs the Rauch-Tung-Striebel smoother on a Gaussian track (on a Gaussian sum that
+kept its history, each component along its lineage, :mod:`tmakit.filters.sum_smoothing`; on
+one that did not, on its moments), or with ``lag=N`` the fixed-lag smoother; on a particle track
+that kept its clouds,
 forward filtering-backward simulation with the filter's own move as transition density.
 
 References
@@ -19,6 +21,8 @@ import numpy as np
 
 from ..core.arrays import Array
 from ..motion.dynamics import NearlyConstantVelocity
+from .gaussian_sum import SumStep
+from .sum_smoothing import smooth_sum
 from .track import Track
 
 __all__ = ["smooth"]
@@ -64,8 +68,8 @@ def _history_of(track: Track) -> list | None:
     if len(history) == len(track) + 1:  # the cloud at the prior's time has no row
         history = history[1:]
     if len(history) != len(track) or not np.allclose([h.time for h in history], track.times):
-        raise ValueError("the particle filter's clouds do not match the track's rows (an "
-                         "update was skipped); it cannot be smoothed")
+        raise ValueError("the filter's kept history (particle clouds or Gaussian sums) does not "
+                         "match the track's rows (an update was skipped); it cannot be smoothed")
     return list(history)
 
 
@@ -119,8 +123,8 @@ def smooth(track: Track, *, lag: int | None = None,
     Parameters
     ----------
     track : Track
-        A track of a Gaussian filter (the Gaussian sum's moments too) or of a particle filter
-        that kept its clouds.
+        A track of a Gaussian filter, of a Gaussian sum (that kept its history: smoothed per
+        component; otherwise on its moments) or of a particle filter that kept its clouds.
     lag : int, optional
         Fixed lag N >= 0 (updates); default the whole track (fixed-interval RTS).
     dynamics : NearlyConstantVelocity, optional
@@ -134,7 +138,8 @@ def smooth(track: Track, *, lag: int | None = None,
     -------
     Track
         The smoothed states and covariances (the rest as filtered); ``extra.options["smoother"]``
-        says which.
+        says which; for a Gaussian sum's history, ``extra.history`` holds the smoothed sum per
+        row (:class:`~tmakit.filters.gaussian_sum.SumStep`).
 
     Raises
     ------
@@ -153,7 +158,11 @@ def smooth(track: Track, *, lag: int | None = None,
     if n == 0:
         return track
     history = _history_of(track)
-    if history is not None:
+    sums = None
+    if history is not None and isinstance(history[0], SumStep):
+        xs, ps, sums = smooth_sum(history, dyn, lag)
+        label = "gaussian-sum " + ("rts" if lag is None else f"fixed-lag {int(lag)}")
+    elif history is not None:
         if lag is not None:
             raise ValueError("the particle smoother is fixed-interval; lag applies to the "
                              "Gaussian filters")
@@ -171,7 +180,7 @@ def smooth(track: Track, *, lag: int | None = None,
             x, p = _backward(times, states, covs, dyn, k, min(k + int(lag), n - 1))
             xs[k], ps[k] = x[0], p[0]
         label = f"fixed-lag {int(lag)}"
-    extra = replace(track.extra, smoothed=None, history=None,
+    extra = replace(track.extra, smoothed=None, history=sums,
                     options={**track.extra.options, "smoother": label})
     return Track(track.filter_name, track.state_names, times.copy(), xs, ps, track.nis.copy(),
                  track.dof.copy(), track.log_likelihood.copy(), extra)
