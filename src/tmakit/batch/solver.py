@@ -102,6 +102,7 @@ class GaussNewtonModel:
     decrement: Array  # (B,) the Gauss-Newton decrement (half chi2)
     small_grad: NDArray[np.bool_]  # (B,) the gradient test met
     jtj: Array | None = None  # (B, p, p) J'J itself
+    evals: Array | None = None  # (B, p) the eigenvalues before their floor
 
     @classmethod
     def at(cls, ev: Evaluation, gtol: float, free: NDArray[np.bool_] | None) -> GaussNewtonModel:
@@ -112,33 +113,36 @@ class GaussNewtonModel:
             if one is not None:
                 return one
         scale = np.sqrt(np.maximum(jtj.diagonal(0, 1, 2), 1e-300))
-        w, v = np.linalg.eigh(jtj / (scale[:, :, None] * scale[:, None, :]))
+        evals, v = np.linalg.eigh(jtj / (scale[:, :, None] * scale[:, None, :]))
         # eigenvalues floored at 1e-12 of the largest: a rank-deficient J'J gives finite steps
-        w = np.maximum(w, 1e-12 * w[:, -1:])
+        w = np.maximum(evals, 1e-12 * evals[:, -1:])
         vg = (v.swapaxes(1, 2) @ (grad / scale)[:, :, None])[..., 0]
         rnorm = np.sqrt(2.0 * ev.cost)[:, None]
         return cls(w, v, vg, scale, 0.5 * (vg * vg / w).sum(axis=1),
-                   np.asarray((np.abs(grad) <= gtol * scale * rnorm).all(axis=1)), jtj)
+                   np.asarray((np.abs(grad) <= gtol * scale * rnorm).all(axis=1)), jtj, evals)
 
     @classmethod
     def _one(cls, jtj: Array, grad: Array, cost: float, gtol: float) -> GaussNewtonModel | None:
         """Build a single run's model as :meth:`at` does, in 2-D arrays (fewer calls)."""
         scale = np.sqrt(np.maximum(jtj.diagonal(), 1e-300))
         try:
-            w, v = eigh(jtj / np.multiply.outer(scale, scale))
+            evals, v = eigh(jtj / np.multiply.outer(scale, scale))
         except np.linalg.LinAlgError:
             return None
-        w = np.maximum(w, 1e-12 * w[-1])  # floored as in :meth:`at`
+        w = np.maximum(evals, 1e-12 * evals[-1])  # floored as in :meth:`at`
         vg = (grad / scale).dot(v)
-        small = bool((np.abs(grad) <= gtol * math.sqrt(2.0 * cost) * scale).all())
+        limit = gtol * math.sqrt(2.0 * cost)  # the gradient test in floats (p is small)
+        small = all(abs(g) <= limit * s for g, s in zip(grad.tolist(), scale.tolist(),
+                                                          strict=True))
         return cls(w[None], v[None], vg[None], scale[None],
-                   np.array([0.5 * vg.dot(vg / w)]), np.array([small]), jtj[None])
+                   np.array([0.5 * vg.dot(vg / w)]), np.array([small]), jtj[None], evals[None])
 
     def take(self, rows: NDArray[np.bool_]) -> GaussNewtonModel:
         """Keep the runs ``rows``."""
         return GaussNewtonModel(self.w[rows], self.v[rows], self.vg[rows], self.scale[rows],
                                 self.decrement[rows], self.small_grad[rows],
-                                None if self.jtj is None else self.jtj[rows])
+                                None if self.jtj is None else self.jtj[rows],
+                                None if self.evals is None else self.evals[rows])
 
     def step(self, lam: Array) -> tuple[Array, Array]:
         """Give the step at damping ``lam`` and the decrease the model predicts for it."""
@@ -214,6 +218,9 @@ class SolveResult:
     evaluation: Evaluation
     dominated: NDArray[np.bool_] | None = None  # stopped: bound for a worse minimum
     information: Array | None = None  # (B, q, q) J'J at the final points (NaN: not formed)
+    #: A single run's ``information`` decomposed as :func:`tmakit.results.observability.analyse`
+    #: decomposes it (from the solver's last Gauss-Newton model), or None.
+    decomposition: tuple[Array, Array, Array] | None = None
 
 
 @dataclass(frozen=True)
@@ -258,6 +265,7 @@ class _Runs:
         self.history = np.tile(out.cost, (_STALL_WINDOW + 1, 1)) if stall else None
         self.model: GaussNewtonModel | None = None
         self.information: Array | None = None  # J'J of stopped runs at their final points
+        self.last_model: GaussNewtonModel | None = None  # a single run's, when it stopped
         # a single run's previous point and its J'J (how fast J'J changes: information_steady)
         self.previous: tuple[Array, Array] | None = None
         self.stop(~np.isfinite(out.cost), np.zeros(b, dtype=bool))
@@ -267,23 +275,29 @@ class _Runs:
         """Record the runs ``mask`` as stopped and drop them from the live arrays."""
         if not mask.any():
             return
+        b = self.out.cost.shape[0]
         ids = self.ids[mask]
         # The model is at cur (or at the point a polishing step left: see _polished).
         if self.model is not None and self.model.jtj is not None:
             if self.information is None:
                 q = self.model.jtj.shape[-1]
-                self.information = np.full((self.out.cost.shape[0], q, q), np.nan)
+                self.information = np.full((b, q, q), np.nan)
             self.information[ids] = self.model.jtj[mask]
+            if b == 1:
+                self.last_model = self.model
         if self.reached is not None and self.groups is not None:  # (reached: with groups)
             np.minimum.at(self.reached, self.groups[mask], self.cur.cost[mask])
         self.converged[ids] = converged[mask]
         if dominated is not None:
             self.dominated[ids] = dominated[mask]
         if self.cur is not self.out:
-            if ids.size == self.out.cost.shape[0]:  # every run at once: no copy
+            if ids.size == b:  # every run at once: no copy
                 self.out = self.cur
             else:
                 self.out.put(ids, self.cur, mask)
+        if ids.size == self.ids.size:  # every live run stopped: nothing left to compact
+            self.ids = ids[:0]
+            return
         keep = ~mask
         self.ids = self.ids[keep]
         self.cur = self.cur.take(keep)
@@ -305,6 +319,20 @@ class _Runs:
             return np.zeros(self.ids.size, dtype=bool)
         then = self.history[(iteration - _STALL_WINDOW) % slots, self.ids]
         return then - self.cur.cost < stall
+
+    def decomposition(self) -> tuple[Array, Array, Array] | None:
+        """Give a single run's final ``J'J`` decomposed as ``analyse`` does, if it has one."""
+        model = self.last_model
+        if model is None or model.evals is None or model.jtj is None:
+            return None
+        evals = model.evals[0]
+        if not all(map(math.isfinite, evals.tolist())):  # (a J'J not finite: none made)
+            return None
+        # analyse's normalisation divides by sqrt(d), and by 1 where d is not positive
+        inverse = [1.0 / s if d > 0 else 1.0
+                   for d, s in zip(model.jtj[0].diagonal().tolist(), model.scale[0].tolist(),
+                                   strict=True)]
+        return evals, model.v[0], np.array(inverse)
 
     def finish(self) -> Evaluation:
         """Write the state of the runs still live (the iteration limit) into ``out``; give it."""
@@ -381,7 +409,7 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
                                         damping0, fallback), max_iter, rules)
     out = runs.finish()  # each accepted point carries its own eliminated nuisance: no re-evaluation
     return SolveResult(out.theta, out.nuisance, out.cost, runs.iterations, runs.converged,
-                       out, runs.dominated, runs.information)
+                       out, runs.dominated, runs.information, runs.decomposition())
 
 
 def _start(problem: VarProProblem, y: Array, theta0: Array,
