@@ -249,7 +249,7 @@ class _Runs:
 
     def __init__(self, out: Evaluation, u: Array, nu_star: Array,
                  groups: NDArray[np.int64] | None, reached: Array | None,
-                 stall: bool) -> None:
+                 stall: bool, damping0: float = 1e-3) -> None:
         b = out.cost.shape[0]
         self.out = out
         self.converged = np.zeros(b, dtype=bool)
@@ -258,7 +258,7 @@ class _Runs:
         self.ids = np.arange(b)
         self.cur, self.u, self.nu_star, self.groups = out, u, nu_star, groups
         self.reached = reached  # per group, the lowest cost of a stopped run
-        self.lam = np.full(b, 1e-3)
+        self.lam = np.full(b, damping0)
         self.grow = np.full(b, 2.0)  # Nielsen's factor for the damping after a failure
         self.rejected = np.zeros(b, dtype=np.int64)  # rejected steps in a row
         # costs after the last iterations, by run (a ring over _STALL_WINDOW + 1 slots)
@@ -268,7 +268,9 @@ class _Runs:
         self.last_model: GaussNewtonModel | None = None  # a single run's, when it stopped
         # a single run's previous point and its J'J (how fast J'J changes: information_steady)
         self.previous: tuple[Array, Array] | None = None
-        self.stop(~np.isfinite(out.cost), np.zeros(b, dtype=bool))
+        finite = np.isfinite(out.cost)
+        if not finite.all():
+            self.stop(~finite, np.zeros(b, dtype=bool))
 
     def stop(self, mask: NDArray[np.bool_], converged: NDArray[np.bool_],
              dominated: NDArray[np.bool_] | None = None) -> None:
@@ -279,10 +281,13 @@ class _Runs:
         ids = self.ids[mask]
         # The model is at cur (or at the point a polishing step left: see _polished).
         if self.model is not None and self.model.jtj is not None:
-            if self.information is None:
-                q = self.model.jtj.shape[-1]
-                self.information = np.full((b, q, q), np.nan)
-            self.information[ids] = self.model.jtj[mask]
+            if self.information is None and ids.size == b:  # every run at once (ids ascending)
+                self.information = self.model.jtj[mask]
+            else:
+                if self.information is None:
+                    q = self.model.jtj.shape[-1]
+                    self.information = np.full((b, q, q), np.nan)
+                self.information[ids] = self.model.jtj[mask]
             if b == 1:
                 self.last_model = self.model
         if self.reached is not None and self.groups is not None:  # (reached: with groups)
@@ -435,10 +440,9 @@ def _start(problem: VarProProblem, y: Array, theta0: Array,
         if back.any():  # (all runs again: a step that failed is rare)
             theta = np.where(back[:, None], fallback[0], theta)
             start = problem.evaluate_part(theta, u, nu_star, True, quiet=True)
-    runs = _Runs(start, u, nu_star, groups, reached, stall)
+    runs = _Runs(start, u, nu_star, groups, reached, stall, damping0)
     if fallback is not None and len(fallback) == 3 and b == 1 and not back[0]:
         runs.previous = (np.asarray(fallback[0])[0], np.asarray(fallback[2])[0])
-    runs.lam[:] = damping0
     return runs
 
 
@@ -495,8 +499,9 @@ def _after_step_one(runs: _Runs, trial: Evaluation, step: Array, predicted: floa
     better, lam = new < cost, float(runs.lam[0])
     _damp_one(runs, better, cost, new, predicted)
     # A heavily damped step is small without being converged (see _iterate).
-    tiny = better and lam <= 1e-2 and bool(
-        (np.abs(step) <= rules.xtol * (np.abs(trial.theta) + 1.0)).all())
+    tiny = better and lam <= 1e-2 and all(
+        abs(s) <= rules.xtol * (abs(t) + 1.0)
+        for s, t in zip(step[0].tolist(), trial.theta[0].tolist(), strict=True))
     if better:
         if runs.model is not None and runs.model.jtj is not None:
             runs.previous = (runs.cur.theta[0], runs.model.jtj[0])

@@ -43,8 +43,6 @@ def wrap_angle_own(e: NDArray[np.float64], in_place: bool = False) -> NDArray[np
     """Return :func:`wrap_angle` of ``e``, the same bits, in place where it can."""
     if not e.size:
         return wrap_angle(e)
-    if np.abs(e).max() < np.pi:  # the common case, one reduction: nothing to wrap
-        return e if in_place else e.copy()
     low, high = e.min(), e.max()
     # a - 2 pi is exact for a in [pi, 4 pi] (Sterbenz): the tests hold for the shifted rows
     if not (high - TWO_PI <= np.pi and low + TWO_PI > -np.pi):  # (NaN fails too)

@@ -21,8 +21,10 @@ def pseudo_covariance(obsv: Observability) -> NDArray[np.float64]:
     assert obsv.decomposition is not None  # (made by analyse)
     evals, evecs, scale = obsv.decomposition  # eigenvalues ascending: the rank's are the last
     lo = obsv.size - obsv.rank
-    seen = evecs[:, lo:] * scale[:, None]  # in the parameters' units
-    return (seen / evals[lo:]) @ seen.T
+    if lo:
+        evals, evecs = evals[lo:], evecs[:, lo:]
+    seen = evecs * scale[:, None]  # in the parameters' units
+    return (seen / evals) @ seen.T
 
 
 @dataclass

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -396,7 +397,7 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.
     motion = obs.motion
     n = len(obs.meas)
     names_nu = obs.nuisance_names
-    if not np.all(np.isfinite(theta)) or not np.isfinite(cost):
+    if not np.isfinite(theta).all() or not math.isfinite(cost):
         return diverged_result(motion, names_nu, iterations, n - motion.n_params, method,
                                "the solve left the region where the model is defined "
                                "(non-finite predictions)", starts)

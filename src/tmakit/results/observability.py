@@ -237,9 +237,10 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
             norm = norm - np.outer(norm @ unseen, unseen) - np.outer(unseen, unseen @ norm) + (
                 float(unseen @ norm @ unseen) * np.outer(unseen, unseen))
         evals, evecs = eigh(norm)
-    top = max(float(evals[-1]), _TINY)
-    if float(evals[0]) > RANK_TOL * top:  # full rank (eigenvalues ascending), said in floats
-        return Observability(size, size, top / float(evals[0]), np.zeros((size, 0)), [],
+    low, high = float(evals[0]), float(evals[-1])
+    top = max(high, _TINY)
+    if low > RANK_TOL * top:  # full rank (eigenvalues ascending), said in floats
+        return Observability(size, size, top / low, np.zeros((size, 0)), [],
                              np.ones(size, dtype=bool), (evals, evecs, scale))
     null = evals <= RANK_TOL * top
     rank = int(size - null.sum())
