@@ -50,7 +50,7 @@ def information_of(problem: VarProProblem, ev: Evaluation, run: int,
     """Give the Fisher information ``J' R^-1 J`` at run ``run``'s evaluated point, if it has it."""
     if problem.eliminates:
         return None
-    if known is not None and np.all(np.isfinite(known[run])):
+    if known is not None and np.isfinite(known[run]).all():
         return np.array(known[run], dtype=float)
     if ev.normal is not None:
         return np.array(ev.normal[0][run], dtype=float)
@@ -102,7 +102,7 @@ class GaussNewtonModel:
     decrement: Array  # (B,) the Gauss-Newton decrement (half chi2)
     small_grad: NDArray[np.bool_]  # (B,) the gradient test met
     jtj: Array | None = None  # (B, p, p) J'J itself
-    evals: Array | None = None  # (B, p) the eigenvalues before their floor
+    evals: Array | None = None  # (1, p) a single run's eigenvalues before their floor
 
     @classmethod
     def at(cls, ev: Evaluation, gtol: float, free: NDArray[np.bool_] | None) -> GaussNewtonModel:
@@ -113,18 +113,19 @@ class GaussNewtonModel:
             if one is not None:
                 return one
         scale = np.sqrt(np.maximum(jtj.diagonal(0, 1, 2), 1e-300))
-        evals, v = np.linalg.eigh(jtj / (scale[:, :, None] * scale[:, None, :]))
+        w, v = np.linalg.eigh(jtj / (scale[:, :, None] * scale[:, None, :]))
         # eigenvalues floored at 1e-12 of the largest: a rank-deficient J'J gives finite steps
-        w = np.maximum(evals, 1e-12 * evals[:, -1:])
+        w = np.maximum(w, 1e-12 * w[:, -1:])
         vg = (v.swapaxes(1, 2) @ (grad / scale)[:, :, None])[..., 0]
         rnorm = np.sqrt(2.0 * ev.cost)[:, None]
         return cls(w, v, vg, scale, 0.5 * (vg * vg / w).sum(axis=1),
-                   np.asarray((np.abs(grad) <= gtol * scale * rnorm).all(axis=1)), jtj, evals)
+                   np.asarray((np.abs(grad) <= gtol * scale * rnorm).all(axis=1)), jtj)
 
     @classmethod
     def _one(cls, jtj: Array, grad: Array, cost: float, gtol: float) -> GaussNewtonModel | None:
         """Build a single run's model as :meth:`at` does, in 2-D arrays (fewer calls)."""
-        scale = np.sqrt(np.maximum(jtj.diagonal(), 1e-300))
+        # the scale in floats (p is small): the same bits as in :meth:`at`
+        scale = np.array([math.sqrt(max(d, 1e-300)) for d in jtj.diagonal().tolist()])
         try:
             evals, v = eigh(jtj / np.multiply.outer(scale, scale))
         except np.linalg.LinAlgError:
@@ -555,10 +556,11 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
             full[:, free] = step
             step = full
         trial = problem.evaluate_part(cur.theta + step, runs.u, runs.nu_star, True, quiet=True)
-        runs.iterations[runs.ids] += 1
         if lam.shape[0] == 1 and rules.plain:  # one run: its tests in floats
+            runs.iterations[int(runs.ids[0])] += 1
             _after_step_one(runs, trial, step, float(predicted[0]), rules)
             continue
+        runs.iterations[runs.ids] += 1
         better = trial.cost < cur.cost
         _damp(runs, better, np.minimum((cur.cost - trial.cost)
                                        / np.maximum(predicted, 1e-300), 1.0), rules)

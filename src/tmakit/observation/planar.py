@@ -143,13 +143,13 @@ def planar_units(obs: Any, rows: NDArray[np.int64] | None = None) -> PlanarUnits
 def _planar_kind(obs: Any, theta: Array, method: str) -> tuple[Any, Any, Array] | None:
     """Give the affine row map, the one kind's model (with ``method``) and the checked theta."""
     rel_map = obs._rel_map
-    if (rel_map is None or obs.n_nuisance or obs._ref is not None or len(obs.models) != 1
-            or not (theta.ndim == 1 or (theta.ndim == 2 and theta.shape[0] == 1))):
+    if (not (theta.ndim == 1 or (theta.ndim == 2 and theta.shape[0] == 1)) or rel_map is None
+            or obs.n_nuisance or obs._ref is not None or len(obs.models) != 1):
         return None
     model = next(iter(obs.models.values()))
     if not hasattr(model, method) or theta.shape[-1] != rel_map.p:
         return None
-    return rel_map, model, obs.motion.check_theta(theta)
+    return rel_map, model, np.asarray(theta, dtype=float)  # (of the motion's length: checked)
 
 
 def _jacobian_again(obs: Any, theta: Array, weights: Array | None) -> Array:
