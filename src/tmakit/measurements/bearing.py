@@ -92,10 +92,10 @@ class Bearing(MeasurementModel):
         if weight is None:
             np.divide(dy, rho2, out=out_x)
             np.divide(dx, rho2, out=out_y)
-        else:
-            scale = np.divide(weight, rho2)
-            np.multiply(dy, scale, out=out_x)
+        else:  # the factor parked in out_x (rho2 is given back, no new array)
+            scale = np.divide(weight, rho2, out=out_x)
             np.multiply(dx, scale, out=out_y)
+            np.multiply(dy, scale, out=out_x)
         if negate:
             np.negative(out_y, out=out_y)  # -(dx / rho2) == -dx / rho2 exactly
         return rho2
