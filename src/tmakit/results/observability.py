@@ -27,6 +27,7 @@ _TINY = float(np.finfo(float).tiny)
 #: eigenvectors, and the normalisation ``D`` (the information is ``D^-1 V diag(w) V' D^-1``).
 Decomposition = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
 
+
 def full_rank(info: NDArray[np.float64]) -> NDArray[np.bool_]:
     """Tell whether each of a batch of information matrices has full rank (as :func:`analyse`)."""
     d = np.diagonal(info, axis1=-2, axis2=-1)
