@@ -8,8 +8,8 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
-from typing import ClassVar
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
 
 from ..data import MeasurementSet
 from ..motion import MotionModel, PiecewiseCurvilinear, default_ref_time, motion_from_name
@@ -69,28 +69,35 @@ class MLByMotion(BatchEstimator):
         self.grid = grid
         self.max_iter = max_iter
         self.ref_time = ref_time
-        self.manoeuvre = ManoeuvreEstimator(
-            exact=exact, criterion=criterion, alpha=alpha, accelerations=accelerations,
-            ref_time=ref_time, settings=settings)
+        given = (("exact", exact), ("criterion", criterion), ("alpha", alpha),
+                 ("accelerations", accelerations), ("ref_time", ref_time),
+                 ("settings", settings))
+        # (the ManoeuvreEstimator made only for a manoeuvring target: see manoeuvre)
+        self._manoeuvre_options: dict[str, Any] = {k: v for k, v in given if v is not None}
+
+    @property
+    def manoeuvre(self) -> ManoeuvreEstimator:
+        """The manoeuvre settings given (None: not given, the estimator's default)."""
+        return ManoeuvreEstimator(**self._manoeuvre_options)
 
     def __repr__(self) -> str:
         """Return the constructor call that makes this estimator."""
-        extra = "".join(f", {k}={v!r}" for k, v in self.manoeuvre.manoeuvre_options().items())
+        extra = "".join(f", {k}={v!r}" for k, v in self._manoeuvre_options.items())
         return (f"MLByMotion(init={self.init!r}, options={self.options!r}, "
                 f"known_nuisance={self.known_nuisance!r}, grid={self.grid!r}, "
                 f"max_iter={self.max_iter!r}{extra})")
 
     def fit(self, meas: MeasurementSet, motion: MotionModel | str) -> EstimateResult:
         """Return the maximum-likelihood estimate for ``motion``."""
-        chosen = self.manoeuvre
+        given = self._manoeuvre_options
         if isinstance(motion, str):  # read here, once: its ref_time is used up
             motion = model_of(motion, meas, self.ref_time)
-            chosen = replace(chosen, ref_time=None)
+            given = {k: v for k, v in given.items() if k != "ref_time"}
         if isinstance(motion, PiecewiseCurvilinear):
-            return replace(chosen, init=self.init, options=self.options,
-                           known_nuisance=self.known_nuisance,
-                           max_iter=self.max_iter).fit(meas, motion)
-        refuse_manoeuvre_options(chosen.manoeuvre_options(), motion)
+            return ManoeuvreEstimator(
+                init=self.init, options=self.options, known_nuisance=self.known_nuisance,
+                max_iter=self.max_iter, **given).fit(meas, motion)
+        refuse_manoeuvre_options(given, motion)
         return estimate_ml(meas, motion, init=self.init, options=self.options,
                            known_nuisance=self.known_nuisance, grid=self.grid,
                            max_iter=self.max_iter)

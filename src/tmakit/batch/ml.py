@@ -107,7 +107,7 @@ class MaximumLikelihood(BatchEstimator):
         obs = ObservationModel(sets[0], motion, self.options)
         fixed = None if known is None else obs.nuisance_vector(known.values)
         problem = VarProProblem(obs, None, fixed)
-        ys = np.stack([m.value_si for m in sets])  # (writeable: the solver takes it as it is)
+        ys = np.array([m.value_si for m in sets])  # (writeable: the solver takes it as it is)
         bests = self._solve(problem, ys, theta0)
         jacobians = _jacobians(problem.obs, bests)
         out: list[EstimateResult | Exception] = []
@@ -120,7 +120,8 @@ class MaximumLikelihood(BatchEstimator):
                                       best.cost, best.iterations, best.converged, self.name,
                                       best.starts, known, best.note,
                                       jacobian=jacobians.get(id(best)),
-                                      information=best.information)
+                                      information=best.information,
+                                      decomposition=best.decomposition)
                 res.solutions = _solutions(problem, res, best, known, meas)
                 out.append(res)
             except FIT_ERRORS as e:  # pragma: no cover - the bound of a finite fit
@@ -140,7 +141,8 @@ class MaximumLikelihood(BatchEstimator):
             return [Best(sol.theta[i], sol.nuisance[i], float(sol.cost[i]),
                          int(sol.iterations[i]), bool(sol.converged[i]), 1,
                          information=information_of(problem, sol.evaluation, i,
-                                                    sol.information))
+                                                    sol.information),
+                         decomposition=sol.decomposition)
                     for i in range(ys.shape[0])]
         try:
             found: list[Best | Exception | None] = list(
@@ -235,6 +237,9 @@ class Best:
     starts: int
     note: str = ""  # a sentence for the message
     information: NDArray[np.float64] | None = None  # the Fisher information from the solve
+    #: ``information`` decomposed as the solver left it (SolveResult.decomposition), or None
+    decomposition: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = (
+        None)
     others: list[tuple[NDArray[np.float64], NDArray[np.float64], float]] = field(
         default_factory=list)  # other converged ends (theta, nuisance, cost)
 
@@ -327,7 +332,7 @@ def _prefer_above(problem: VarProProblem, best: list[Best | None]) -> None:
                           for t, nu, c in fit.others]  # a mirror image is no other solution
             theta, fit.note = prefer_above(motion, fit.theta, plane)
             if not np.array_equal(theta, fit.theta):  # mirrored: the information is not
-                fit.information = None                # the one at the new point
+                fit.information = fit.decomposition = None  # the one at the new point
             fit.theta = theta
 
 

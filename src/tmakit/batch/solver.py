@@ -50,7 +50,7 @@ def information_of(problem: VarProProblem, ev: Evaluation, run: int,
     """Give the Fisher information ``J' R^-1 J`` at run ``run``'s evaluated point, if it has it."""
     if problem.eliminates:
         return None
-    if known is not None and np.all(np.isfinite(known[run])):
+    if known is not None and np.isfinite(known[run]).all():
         return np.array(known[run], dtype=float)
     if ev.normal is not None:
         return np.array(ev.normal[0][run], dtype=float)
@@ -102,6 +102,7 @@ class GaussNewtonModel:
     decrement: Array  # (B,) the Gauss-Newton decrement (half chi2)
     small_grad: NDArray[np.bool_]  # (B,) the gradient test met
     jtj: Array | None = None  # (B, p, p) J'J itself
+    evals: Array | None = None  # (1, p) a single run's eigenvalues before their floor
 
     @classmethod
     def at(cls, ev: Evaluation, gtol: float, free: NDArray[np.bool_] | None) -> GaussNewtonModel:
@@ -123,22 +124,26 @@ class GaussNewtonModel:
     @classmethod
     def _one(cls, jtj: Array, grad: Array, cost: float, gtol: float) -> GaussNewtonModel | None:
         """Build a single run's model as :meth:`at` does, in 2-D arrays (fewer calls)."""
-        scale = np.sqrt(np.maximum(jtj.diagonal(), 1e-300))
+        # the scale in floats (p is small): the same bits as in :meth:`at`
+        scale = np.array([math.sqrt(max(d, 1e-300)) for d in jtj.diagonal().tolist()])
         try:
-            w, v = eigh(jtj / np.multiply.outer(scale, scale))
+            evals, v = eigh(jtj / np.multiply.outer(scale, scale))
         except np.linalg.LinAlgError:
             return None
-        w = np.maximum(w, 1e-12 * w[-1])  # floored as in :meth:`at`
+        w = np.maximum(evals, 1e-12 * evals[-1])  # floored as in :meth:`at`
         vg = (grad / scale).dot(v)
-        small = bool((np.abs(grad) <= gtol * math.sqrt(2.0 * cost) * scale).all())
+        limit = gtol * math.sqrt(2.0 * cost)  # the gradient test in floats (p is small)
+        small = all(abs(g) <= limit * s for g, s in zip(grad.tolist(), scale.tolist(),
+                                                          strict=True))
         return cls(w[None], v[None], vg[None], scale[None],
-                   np.array([0.5 * vg.dot(vg / w)]), np.array([small]), jtj[None])
+                   np.array([0.5 * vg.dot(vg / w)]), np.array([small]), jtj[None], evals[None])
 
     def take(self, rows: NDArray[np.bool_]) -> GaussNewtonModel:
         """Keep the runs ``rows``."""
         return GaussNewtonModel(self.w[rows], self.v[rows], self.vg[rows], self.scale[rows],
                                 self.decrement[rows], self.small_grad[rows],
-                                None if self.jtj is None else self.jtj[rows])
+                                None if self.jtj is None else self.jtj[rows],
+                                None if self.evals is None else self.evals[rows])
 
     def step(self, lam: Array) -> tuple[Array, Array]:
         """Give the step at damping ``lam`` and the decrease the model predicts for it."""
@@ -214,6 +219,9 @@ class SolveResult:
     evaluation: Evaluation
     dominated: NDArray[np.bool_] | None = None  # stopped: bound for a worse minimum
     information: Array | None = None  # (B, q, q) J'J at the final points (NaN: not formed)
+    #: A single run's ``information`` decomposed as :func:`tmakit.results.observability.analyse`
+    #: decomposes it (from the solver's last Gauss-Newton model), or None.
+    decomposition: tuple[Array, Array, Array] | None = None
 
 
 @dataclass(frozen=True)
@@ -242,7 +250,7 @@ class _Runs:
 
     def __init__(self, out: Evaluation, u: Array, nu_star: Array,
                  groups: NDArray[np.int64] | None, reached: Array | None,
-                 stall: bool) -> None:
+                 stall: bool, damping0: float = 1e-3) -> None:
         b = out.cost.shape[0]
         self.out = out
         self.converged = np.zeros(b, dtype=bool)
@@ -251,39 +259,51 @@ class _Runs:
         self.ids = np.arange(b)
         self.cur, self.u, self.nu_star, self.groups = out, u, nu_star, groups
         self.reached = reached  # per group, the lowest cost of a stopped run
-        self.lam = np.full(b, 1e-3)
+        self.lam = np.full(b, damping0)
         self.grow = np.full(b, 2.0)  # Nielsen's factor for the damping after a failure
         self.rejected = np.zeros(b, dtype=np.int64)  # rejected steps in a row
         # costs after the last iterations, by run (a ring over _STALL_WINDOW + 1 slots)
         self.history = np.tile(out.cost, (_STALL_WINDOW + 1, 1)) if stall else None
         self.model: GaussNewtonModel | None = None
         self.information: Array | None = None  # J'J of stopped runs at their final points
+        self.last_model: GaussNewtonModel | None = None  # a single run's, when it stopped
         # a single run's previous point and its J'J (how fast J'J changes: information_steady)
         self.previous: tuple[Array, Array] | None = None
-        self.stop(~np.isfinite(out.cost), np.zeros(b, dtype=bool))
+        finite = np.isfinite(out.cost)
+        if not finite.all():
+            self.stop(~finite, np.zeros(b, dtype=bool))
 
     def stop(self, mask: NDArray[np.bool_], converged: NDArray[np.bool_],
              dominated: NDArray[np.bool_] | None = None) -> None:
         """Record the runs ``mask`` as stopped and drop them from the live arrays."""
         if not mask.any():
             return
+        b = self.out.cost.shape[0]
         ids = self.ids[mask]
         # The model is at cur (or at the point a polishing step left: see _polished).
         if self.model is not None and self.model.jtj is not None:
-            if self.information is None:
-                q = self.model.jtj.shape[-1]
-                self.information = np.full((self.out.cost.shape[0], q, q), np.nan)
-            self.information[ids] = self.model.jtj[mask]
+            if self.information is None and ids.size == b:  # every run at once (ids ascending)
+                self.information = self.model.jtj[mask]
+            else:
+                if self.information is None:
+                    q = self.model.jtj.shape[-1]
+                    self.information = np.full((b, q, q), np.nan)
+                self.information[ids] = self.model.jtj[mask]
+            if b == 1:
+                self.last_model = self.model
         if self.reached is not None and self.groups is not None:  # (reached: with groups)
             np.minimum.at(self.reached, self.groups[mask], self.cur.cost[mask])
         self.converged[ids] = converged[mask]
         if dominated is not None:
             self.dominated[ids] = dominated[mask]
         if self.cur is not self.out:
-            if ids.size == self.out.cost.shape[0]:  # every run at once: no copy
+            if ids.size == b:  # every run at once: no copy
                 self.out = self.cur
             else:
                 self.out.put(ids, self.cur, mask)
+        if ids.size == self.ids.size:  # every live run stopped: nothing left to compact
+            self.ids = ids[:0]
+            return
         keep = ~mask
         self.ids = self.ids[keep]
         self.cur = self.cur.take(keep)
@@ -305,6 +325,20 @@ class _Runs:
             return np.zeros(self.ids.size, dtype=bool)
         then = self.history[(iteration - _STALL_WINDOW) % slots, self.ids]
         return then - self.cur.cost < stall
+
+    def decomposition(self) -> tuple[Array, Array, Array] | None:
+        """Give a single run's final ``J'J`` decomposed as ``analyse`` does, if it has one."""
+        model = self.last_model
+        if model is None or model.evals is None or model.jtj is None:
+            return None
+        evals = model.evals[0]
+        if not all(map(math.isfinite, evals.tolist())):  # (a J'J not finite: none made)
+            return None
+        # analyse's normalisation divides by sqrt(d), and by 1 where d is not positive
+        inverse = [1.0 / s if d > 0 else 1.0
+                   for d, s in zip(model.jtj[0].diagonal().tolist(), model.scale[0].tolist(),
+                                   strict=True)]
+        return evals, model.v[0], np.array(inverse)
 
     def finish(self) -> Evaluation:
         """Write the state of the runs still live (the iteration limit) into ``out``; give it."""
@@ -381,7 +415,7 @@ def levenberg_marquardt(problem: VarProProblem, y: Array, theta0: Array,
                                         damping0, fallback), max_iter, rules)
     out = runs.finish()  # each accepted point carries its own eliminated nuisance: no re-evaluation
     return SolveResult(out.theta, out.nuisance, out.cost, runs.iterations, runs.converged,
-                       out, runs.dominated, runs.information)
+                       out, runs.dominated, runs.information, runs.decomposition())
 
 
 def _start(problem: VarProProblem, y: Array, theta0: Array,
@@ -407,10 +441,9 @@ def _start(problem: VarProProblem, y: Array, theta0: Array,
         if back.any():  # (all runs again: a step that failed is rare)
             theta = np.where(back[:, None], fallback[0], theta)
             start = problem.evaluate_part(theta, u, nu_star, True, quiet=True)
-    runs = _Runs(start, u, nu_star, groups, reached, stall)
+    runs = _Runs(start, u, nu_star, groups, reached, stall, damping0)
     if fallback is not None and len(fallback) == 3 and b == 1 and not back[0]:
         runs.previous = (np.asarray(fallback[0])[0], np.asarray(fallback[2])[0])
-    runs.lam[:] = damping0
     return runs
 
 
@@ -467,8 +500,9 @@ def _after_step_one(runs: _Runs, trial: Evaluation, step: Array, predicted: floa
     better, lam = new < cost, float(runs.lam[0])
     _damp_one(runs, better, cost, new, predicted)
     # A heavily damped step is small without being converged (see _iterate).
-    tiny = better and lam <= 1e-2 and bool(
-        (np.abs(step) <= rules.xtol * (np.abs(trial.theta) + 1.0)).all())
+    tiny = better and lam <= 1e-2 and all(
+        abs(s) <= rules.xtol * (abs(t) + 1.0)
+        for s, t in zip(step[0].tolist(), trial.theta[0].tolist(), strict=True))
     if better:
         if runs.model is not None and runs.model.jtj is not None:
             runs.previous = (runs.cur.theta[0], runs.model.jtj[0])
@@ -522,10 +556,11 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
             full[:, free] = step
             step = full
         trial = problem.evaluate_part(cur.theta + step, runs.u, runs.nu_star, True, quiet=True)
-        runs.iterations[runs.ids] += 1
         if lam.shape[0] == 1 and rules.plain:  # one run: its tests in floats
+            runs.iterations[int(runs.ids[0])] += 1
             _after_step_one(runs, trial, step, float(predicted[0]), rules)
             continue
+        runs.iterations[runs.ids] += 1
         better = trial.cost < cur.cost
         _damp(runs, better, np.minimum((cur.cost - trial.cost)
                                        / np.maximum(predicted, 1e-300), 1.0), rules)

@@ -183,7 +183,8 @@ class VarProProblem:
         self.eliminates = self.fixed is None and self.k > 0
         # The geometry-free part of the design, whitened once (see ObservationModel).
         self.const_design = obs.const_design
-        self.const_design_w = self.noise.whiten(self.const_design, axis=-2)
+        self.const_design_w = (self.noise.whiten(self.const_design, axis=-2) if self.k
+                               else self.const_design)  # (n, 0): nothing to whiten
         self._const_w_t = np.ascontiguousarray(self.const_design_w.T)  # (k, n)
         self._reference_fit: tuple[NDArray[np.bool_], NDArray[np.bool_], Array] | None = None
         # One nuisance column per kind at most: the columns touch disjoint rows (whitening

@@ -70,12 +70,16 @@ def fisher_information(obs: ObservationModel, theta: ArrayLike, nuisance: ArrayL
 
 
 def _grouped_information(obs: ObservationModel, lin: Linearisation, nuisance: ArrayLike,
-                         known_nuisance: KnownNuisanceLike) -> NDArray[np.float64]:
+                         known_nuisance: KnownNuisanceLike, noise: NoiseModel | None = None
+                         ) -> NDArray[np.float64]:
     """``J^T R^-1 J`` from a linearisation, rows in grouped order (F does not depend on it)."""
     w = lin.jacobian(np.asarray(nuisance, dtype=float))
+    if lin.whitened:  # (the planar path: no nuisance)
+        return w.T @ w
     if as_known_nuisance(known_nuisance) is None and obs.n_nuisance:
         w = np.concatenate([w, obs.const_design + lin.a_var], axis=-1)
-    w = NoiseModel.from_rows(obs.row_model).whiten(w, axis=-2, overwrite=True)
+    noise = NoiseModel.from_rows(obs.row_model) if noise is None else noise
+    w = noise.whiten(w, axis=-2, overwrite=True)
     return w.T @ w
 
 
@@ -179,14 +183,18 @@ def crlb(source: Scenario | MeasurementSet, motion: MotionModel | None = None,
     known = as_known_nuisance(known_nuisance)
     theta = truth_vector(motion, truth)
     obs = ObservationModel(meas, motion, options)
+    noise = NoiseModel.from_rows(obs.row_model)
     with np.errstate(divide="ignore", invalid="ignore"):  # on a sensor: refused just below
-        lin = obs.linearisation(theta)
+        # independent rows: the planar path makes the Jacobian whitened
+        lin = obs.linearisation(theta, weights=None if noise.correlated else noise.inv_sigma)
     check_off_sensors(obs, theta, lin)
-    nu = np.zeros(0)
-    if obs.n_nuisance:  # (no values to gather otherwise)
-        values = _nuisance_values(meas, nuisance)
-        nu = obs.nuisance_vector(values if known is None else known.over(values))
-    info = _grouped_information(obs, lin, nu, known)
+    if not obs.n_nuisance:  # (no values to gather)
+        info = _grouped_information(obs, lin, np.zeros(0), known, noise)
+        return bound_from_information(info, motion.param_names, theta.copy(), meas, motion,
+                                      known, {})
+    values = _nuisance_values(meas, nuisance)
+    nu = obs.nuisance_vector(values if known is None else known.over(values))
+    info = _grouped_information(obs, lin, nu, known, noise)
     names = motion.param_names + (() if known else obs.nuisance_names)
     vals = theta if known else np.concatenate([theta, nu])
     used = {n: float(v) for n, v in zip(obs.nuisance_names, nu, strict=True)}
@@ -200,10 +208,12 @@ ON_SENSOR_M = 1e-3
 def check_off_sensors(obs: ObservationModel, theta: NDArray[np.float64],
                       lin: Linearisation) -> None:
     """Refuse a truth that puts the target on a sensor at one of the measurement times."""
-    rel = lin.relative
-    assert rel is not None  # (made with derivatives)
-    planar = rel[..., 0] * rel[..., 0]  # the linearisation's own relative positions
-    planar += rel[..., 1] * rel[..., 1]
+    planar = lin.planar_squared  # the planar path's own squared distances
+    if planar is None:
+        rel = lin.relative
+        assert rel is not None  # (made with derivatives)
+        planar = rel[..., 0] * rel[..., 0]  # the linearisation's own relative positions
+        planar += rel[..., 1] * rel[..., 1]
     if not planar.size or planar.min() >= ON_SENSOR_M**2:  # away from each in the plane alone
         return
     dist2 = obs.squared_ranges(theta)  # with the height, in grouped order

@@ -7,6 +7,7 @@ are covariances in SI units (m^2, m^2/s, m^2/s^2); the functions do not care whi
 from __future__ import annotations
 
 import functools
+import math
 from typing import Any, cast
 
 import numpy as np
@@ -99,9 +100,9 @@ def _dsyevd() -> Any:
 
 def normalise(info: Array) -> tuple[Array, Array]:
     """Normalise an information matrix to unit diagonal."""
-    d = info.diagonal()
-    scale = 1.0 / np.sqrt(np.where(d > 0, d, 1.0))
-    return info * scale[:, None] * scale[None, :], scale
+    # the scale in floats (one information is small): the same bits as 1 / np.sqrt(d)
+    scale = np.array([1.0 / math.sqrt(d) if d > 0 else 1.0 for d in info.diagonal().tolist()])
+    return info * scale[:, None] * scale, scale
 
 
 def normalised_eigh(info: Array) -> tuple[Array, Array, Array]:

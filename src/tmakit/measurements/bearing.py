@@ -68,7 +68,7 @@ class Bearing(MeasurementModel):
         np.negative(d_rel[..., 1], out=d_rel[..., 1])
 
     def planar_gradient(self, dx: Array, dy: Array, out_x: Array, out_y: Array,
-                        weight: Array | None = None, negate: bool = True) -> None:
+                        weight: Array | None = None, negate: bool = True) -> Array:
         """Write the bearings' derivatives by relative east and north.
 
         Parameters
@@ -81,18 +81,24 @@ class Bearing(MeasurementModel):
             ``(m,)`` factors of the derivatives (e.g. ``1 / sigma``).
         negate : bool, optional
             False leaves ``out_y`` holding the derivative's negative.
+
+        Returns
+        -------
+        ndarray
+            ``r^2 = dx^2 + dy^2`` ``(m,)``, m^2.
         """
         rho2 = dx * dx
         rho2 += dy * dy
         if weight is None:
             np.divide(dy, rho2, out=out_x)
             np.divide(dx, rho2, out=out_y)
-        else:
-            scale = np.divide(weight, rho2, out=rho2)
-            np.multiply(dy, scale, out=out_x)
+        else:  # the factor parked in out_x (rho2 is given back, no new array)
+            scale = np.divide(weight, rho2, out=out_x)
             np.multiply(dx, scale, out=out_y)
+            np.multiply(dy, scale, out=out_x)
         if negate:
             np.negative(out_y, out=out_y)  # -(dx / rho2) == -dx / rho2 exactly
+        return rho2
 
     def planar_value(self, dx: Array, dy: Array) -> Array:
         """Give bearings from the relative east and north positions.

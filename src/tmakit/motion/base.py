@@ -216,6 +216,9 @@ class MotionModel(ABC):
         ValueError
             For a missing or an unknown name.
         """
+        names = self.param_names
+        if len(values) == len(names) and all(name in values for name in names):  # (the usual)
+            return np.array([float(values[name]) for name in names])
         missing = [name for name in self.param_names if name not in values]
         unknown = [name for name in values if name not in self.param_names]
         if missing or unknown:

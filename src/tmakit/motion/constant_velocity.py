@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.arrays import zeros_broadcast
 from .base import MotionModel
 
 
@@ -93,7 +94,7 @@ class ConstantVelocity(MotionModel):
         for i in range(d):
             terms += [(i, i, None), (d + i, i, dt), (d + i, 3 + i, None)]
         # The offset is zero: a read-only broadcast, no memory per row.
-        return terms, np.broadcast_to(0.0, (6, dt.shape[0]))
+        return terms, zeros_broadcast((6, dt.shape[0]))
 
     def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
               ) -> NDArray[np.float64]:

@@ -13,7 +13,6 @@ from numpy.typing import NDArray
 
 from ..core.arrays import Array
 
-_IN_PLACE_ROWS = 2048  # rows from which :meth:`AffineRows.single` writes in place
 _SENSOR_BLOCK = 4096  # rows of sensor states (192 kB) whose components are made together
 
 #: One non-zero term: parameter index, state component, coefficient per row (None: all 1).
@@ -133,18 +132,12 @@ class AffineRows:
         th = theta.reshape(-1).tolist()
         n_c = 6 if components is None else int(components)
         # Each component sums its terms in parameter order, then the offset: the order of
-        # the dense product's sums (``theta @ matrix + offset``).
-        if self.m >= _IN_PLACE_ROWS:
-            # The first product written in place (``0 + a`` is ``a``, ``a + b`` is
-            # ``b + a``, the same bits): no zeroed array and no temporary per term.
-            out = np.empty((n_c, self.m))
-            for c in range(n_c):
-                self._component(th, c, out[c])
-        else:  # few rows: fewest calls
-            out = np.zeros((n_c, self.m))
-            for i, c, coef in self.terms:
-                if c < n_c:
-                    out[c] += th[i] if coef is None else th[i] * coef
+        # the dense product's sums (``theta @ matrix + offset``).  The first product is
+        # written in place (``0 + a`` is ``a``, ``a + b`` is ``b + a``, the same bits): no
+        # zeroed array and no temporary per term.
+        out = np.empty((n_c, self.m))
+        for c in range(n_c):
+            self._component(th, c, out[c])
         out += self._offset_head(n_c) if n_c < 6 else self.offset
         if components is not None:
             return out

@@ -37,7 +37,8 @@ def planar_linearisation(obs: Any, theta: Array, weights: Array | None = None
     rel_map, model, theta = found
     rel = rel_map.single(theta, components=2)  # (2, m): dx, dy, component-major
     jac = np.empty((rel_map.p, rel_map.m))
-    model.planar_gradient(rel[0], rel[1], jac[0], jac[1], weights)  # parked in rows 0, 1
+    # parked in rows 0, 1
+    squared = model.planar_gradient(rel[0], rel[1], jac[0], jac[1], weights)
     in_place = rel_map.planar_positions  # (else rows 0, 1 are overwritten before read)
     g = (jac[0], jac[1]) if in_place else (jac[0].copy(), jac[1].copy())
     _chain_terms(rel_map.planar_terms, g, jac, in_place)
@@ -46,6 +47,7 @@ def planar_linearisation(obs: Any, theta: Array, weights: Array | None = None
     lin.planar_values = lambda: model.planar_value(rel[0], rel[1]).reshape(*batch, rel_map.m)
     lin.planar_jacobian = jac.T.reshape(*batch, rel_map.m, rel_map.p)
     lin.relative = rel.T.reshape(*batch, rel_map.m, 2)
+    lin.planar_squared = squared
     lin.planar_again = lambda: _jacobian_again(obs, theta, weights)
     lin.whitened = weights is not None
     return lin
@@ -141,13 +143,13 @@ def planar_units(obs: Any, rows: NDArray[np.int64] | None = None) -> PlanarUnits
 def _planar_kind(obs: Any, theta: Array, method: str) -> tuple[Any, Any, Array] | None:
     """Give the affine row map, the one kind's model (with ``method``) and the checked theta."""
     rel_map = obs._rel_map
-    if (rel_map is None or obs.n_nuisance or obs._ref is not None or len(obs.models) != 1
-            or not (theta.ndim == 1 or (theta.ndim == 2 and theta.shape[0] == 1))):
+    if (not (theta.ndim == 1 or (theta.ndim == 2 and theta.shape[0] == 1)) or rel_map is None
+            or obs.n_nuisance or obs._ref is not None or len(obs.models) != 1):
         return None
     model = next(iter(obs.models.values()))
     if not hasattr(model, method) or theta.shape[-1] != rel_map.p:
         return None
-    return rel_map, model, obs.motion.check_theta(theta)
+    return rel_map, model, np.asarray(theta, dtype=float)  # (of the motion's length: checked)
 
 
 def _jacobian_again(obs: Any, theta: Array, weights: Array | None) -> Array:
@@ -213,6 +215,8 @@ class Linearisation:
         #: handed over on the first call of :meth:`jacobian` (the caller may scale it), then
         #: made again by ``planar_again``.
         self.planar_jacobian: Array | None = None
+        #: The planar path's squared east-north distances ``(m,)`` to the sensors, m^2.
+        self.planar_squared: Array | None = None
         self.planar_again: Callable[[], Array] | None = None
         self._planar_given = False
         #: Whether the planar Jacobian is already whitened (made with the noise's weights).

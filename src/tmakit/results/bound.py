@@ -13,15 +13,18 @@ from ..data import MeasurementSet
 from ..motion import MotionModel
 from .answers import finite, parameter_display, position_ellipse
 from .nuisance import KnownNuisance, as_known_nuisance
-from .observability import Observability, analyse
+from .observability import Decomposition, Observability, analyse
 
 
 def pseudo_covariance(obsv: Observability) -> NDArray[np.float64]:
     """Invert the information on its observable subspace (Moore–Penrose)."""
     assert obsv.decomposition is not None  # (made by analyse)
     evals, evecs, scale = obsv.decomposition  # eigenvalues ascending: the rank's are the last
-    seen = evecs[:, obsv.size - obsv.rank:]
-    return (seen / evals[obsv.size - obsv.rank:]) @ seen.T * scale[:, None] * scale[None, :]
+    lo = obsv.size - obsv.rank
+    if lo:
+        evals, evecs = evals[lo:], evecs[:, lo:]
+    seen = evecs * scale[:, None]  # in the parameters' units
+    return (seen / evals) @ seen.T
 
 
 @dataclass
@@ -264,7 +267,8 @@ class Bound:
 def bound_from_information(info: NDArray[np.float64], names: tuple[str, ...],
                            values: NDArray[np.float64], meas: MeasurementSet,
                            motion: MotionModel, known_nuisance: KnownNuisance | None,
-                           nuisance_values: Mapping[str, float]) -> Bound:
+                           nuisance_values: Mapping[str, float],
+                           decomposition: Decomposition | None = None) -> Bound:
     """Build the bound (or an estimate's covariance) from an information matrix.
 
     Parameters
@@ -277,6 +281,8 @@ def bound_from_information(info: NDArray[np.float64], names: tuple[str, ...],
         Where it was evaluated (truth or fit).
     meas, motion, known_nuisance, nuisance_values
         As for :class:`Bound`.
+    decomposition : tuple of ndarray, optional
+        ``info``'s (:func:`~tmakit.results.observability.analyse`), if made already.
 
     Returns
     -------
@@ -286,7 +292,7 @@ def bound_from_information(info: NDArray[np.float64], names: tuple[str, ...],
     if known is not None:
         known = KnownNuisance(nuisance_values)
     theta = values[: motion.n_params]
-    obsv = analyse(info, names, meas, motion, theta)
+    obsv = analyse(info, names, meas, motion, theta, decomposition)
     cov = pseudo_covariance(obsv)
     std = np.sqrt(np.maximum(cov.diagonal(), 0.0))
     if not obsv.full_rank:

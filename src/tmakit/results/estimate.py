@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -27,6 +28,7 @@ from .bound import Bound, bound_from_information
 from .checks import SanityWarning, chi2_probability, fit_warnings, wider_undetermined
 from .context import geodetic_fix, origin_of
 from .nuisance import KnownNuisance, as_known_nuisance
+from .observability import Decomposition
 from .solutions import Solution, fit_fields, range_spread
 from .status import CONVERGED, DIVERGED, NOT_CONVERGED, UNOBSERVABLE, Status, fit_status
 from .trust import Trust, trust_of
@@ -365,7 +367,8 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.
                     cost: float, iterations: int, converged: bool, method: str, starts: int,
                     known_nuisance: KnownNuisance | None, note: str = "", *,
                     jacobian: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
-                    information: NDArray[np.float64] | None = None) -> EstimateResult:
+                    information: NDArray[np.float64] | None = None,
+                    decomposition: Decomposition | None = None) -> EstimateResult:
     """Return the result of a weighted least-squares fit: covariance from the information.
 
     Parameters
@@ -382,8 +385,9 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.
         As the fields of :class:`EstimateResult`; nuisance known (None: estimated).
     note : str, optional
         Appended to the message.
-    jacobian, information : optional
-        ``obs.jacobian_grouped(theta, nu)`` and the Fisher information, if the caller has them.
+    jacobian, information, decomposition : optional
+        ``obs.jacobian_grouped(theta, nu)``, the Fisher information and its decomposition
+        (:func:`~tmakit.results.observability.analyse`'s), if the caller has them.
 
     Returns
     -------
@@ -393,19 +397,21 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.
     motion = obs.motion
     n = len(obs.meas)
     names_nu = obs.nuisance_names
-    if not np.all(np.isfinite(theta)) or not np.isfinite(cost):
+    if not np.isfinite(theta).all() or not math.isfinite(cost):
         return diverged_result(motion, names_nu, iterations, n - motion.n_params, method,
                                "the solve left the region where the model is defined "
                                "(non-finite predictions)", starts)
     n_info = motion.n_params + (0 if known else len(names_nu))
-    info = (np.asarray(information, dtype=float) if information is not None
-            and np.shape(information) == (n_info, n_info)
-            else _information(obs, noise, theta, nu, known, jacobian))
+    if information is not None and np.shape(information) == (n_info, n_info):
+        info = np.asarray(information, dtype=float)
+    else:
+        info, decomposition = _information(obs, noise, theta, nu, known, jacobian), None
     names = motion.param_names + (() if known else names_nu)
     values = theta if known else np.concatenate([theta, nu])
     nu_values = dict(zip(names_nu, nu, strict=True))
     bound = bound_from_information(info, names, values, obs.meas, motion,
-                                   KnownNuisance(nu_values) if known else None, nu_values)
+                                   KnownNuisance(nu_values) if known else None, nu_values,
+                                   decomposition)
     p = motion.n_params
     std = bound.std[:p]
     cov = bound.covariance[:p, :p]

@@ -23,6 +23,11 @@ RANK_TOL = 1e-10
 
 _TINY = float(np.finfo(float).tiny)
 
+#: The eigen-decomposition of a normalised information: eigenvalues ascending, their unit
+#: eigenvectors, and the normalisation ``D`` (the information is ``D^-1 V diag(w) V' D^-1``).
+Decomposition = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+
+
 def full_rank(info: NDArray[np.float64]) -> NDArray[np.bool_]:
     """Tell whether each of a batch of information matrices has full rank (as :func:`analyse`)."""
     d = np.diagonal(info, axis1=-2, axis2=-1)
@@ -84,8 +89,7 @@ class Observability:
     null_basis: NDArray[np.float64]
     directions: list[Direction]
     observable: NDArray[np.bool_]
-    decomposition: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = (
-        field(default=None, repr=False, compare=False))
+    decomposition: Decomposition | None = field(default=None, repr=False, compare=False)
 
     @property
     def full_rank(self) -> bool:
@@ -203,7 +207,8 @@ def _weights(names: tuple[str, ...], vec: NDArray[np.float64]) -> dict[str, floa
 
 
 def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: MeasurementSet,
-            motion: MotionModel, theta: NDArray[np.float64]) -> Observability:
+            motion: MotionModel, theta: NDArray[np.float64],
+            decomposition: Decomposition | None = None) -> Observability:
     """Find the rank, conditioning and named unobservable directions of an information.
 
     Parameters
@@ -215,22 +220,29 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
     meas, motion : MeasurementSet, MotionModel
     theta : ndarray, shape (p,)
         Where ``info`` was evaluated, SI.
+    decomposition : tuple of ndarray, optional
+        ``info``'s, if made already (e.g. by the solver).
 
     Returns
     -------
     Observability
     """
     size = info.shape[0]
-    norm, scale = normalise(info)
-    unseen = _range_by_shape(meas, motion, np.asarray(theta, float), norm, scale, size)
-    if unseen is not None:
-        norm = norm - np.outer(norm @ unseen, unseen) - np.outer(unseen, unseen @ norm) + (
-            float(unseen @ norm @ unseen) * np.outer(unseen, unseen))
-    evals, evecs = eigh(norm)
-    top = max(float(evals[-1]), _TINY)
-    if float(evals[0]) > RANK_TOL * top:  # full rank (eigenvalues ascending), said in floats
-        return Observability(size, size, top / float(evals[0]), np.zeros((size, 0)), [],
-                             np.ones(size, dtype=bool), (evals, evecs, scale))
+    unseen = _range_by_shape(meas, motion, np.asarray(theta, float), info, size)
+    if decomposition is not None and unseen is None:
+        evals, evecs, scale = decomposition
+        norm = None  # made if needed (a rank deficiency to describe)
+    else:
+        norm, scale = normalise(info)
+        if unseen is not None:
+            norm = norm - np.outer(norm @ unseen, unseen) - np.outer(unseen, unseen @ norm) + (
+                float(unseen @ norm @ unseen) * np.outer(unseen, unseen))
+        evals, evecs = eigh(norm)
+    low, high = float(evals[0]), float(evals[-1])
+    top = max(high, _TINY)
+    if low > RANK_TOL * top:  # full rank (eigenvalues ascending), said in floats
+        return Observability(size, size, top / low, np.zeros((size, 0)), [],
+                             np.array([True] * size), (evals, evecs, scale))
     null = evals <= RANK_TOL * top
     rank = int(size - null.sum())
     positive = evals[~null]
@@ -244,18 +256,18 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
         observable = np.linalg.norm(null_norm, axis=1) < 1e-6
     directions: list[Direction] = []
     if rank < size:
+        norm = normalise(info)[0] if norm is None else norm
         directions = _describe(null_norm, scale, names, norm, top, meas, motion, theta, unseen)
     return Observability(rank, size, condition, null_phys, directions, observable,
                          (evals, evecs, scale))
 
 
 def _range_by_shape(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np.float64],
-                    norm: NDArray[np.float64], scale: NDArray[np.float64], size: int
-                    ) -> NDArray[np.float64] | None:
+                    info: NDArray[np.float64], size: int) -> NDArray[np.float64] | None:
     """Give the range direction (normalised unit vector) only a manoeuvre model's shape sees."""
     # a stationary emitter (a moving sensor's bearings do give its range) or constant
     # velocity (the rank says whether range is seen): no manoeuvre to take it from
-    if (len(meas.sensors) != 1 or not _angles_only(meas) or motion.velocity_fixed
+    if (motion.velocity_fixed or len(meas.sensors) != 1 or not _angles_only(meas)
             or not np.all(np.isfinite(theta))):
         return None
     sensor = meas.sensors[0]
@@ -270,6 +282,7 @@ def _range_by_shape(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np
     dtheta = np.linalg.lstsq(jac.reshape(-1, motion.n_params), d.reshape(-1), rcond=None)[0]
     full = np.zeros(size)
     full[:motion.n_params] = dtheta
+    norm, scale = normalise(info)
     u = full / scale
     if not np.all(np.isfinite(u)) or not np.any(u):
         return None
