@@ -8,9 +8,10 @@ least twice as long when the next updates' summed NIS is improbable (p below
 ``confirm_p_value``).  A window's estimate is a good start when it converged, every state
 component is observable and the position's largest 1-sigma semi-axis is below
 ``max_relative_std`` times the range (``docs/tracking.md``): :func:`search_window` doubles the
-window from ``min_window`` until it qualifies, then bisects down to the shortest that does (a
-bisection fit starts from the last good window's estimate where that decides the window clearly;
-the chosen window is always fitted without a guess, so the start is the same).  The records' :meth:`as_dict` is the ``start`` of ``tma track --json``.
+window from ``min_window`` until it qualifies, then bisects down to the shortest that does (with
+bearings a fit may start from a neighbouring window's estimate where that decides the window
+clearly; the chosen window is fitted without a guess).  The records' :meth:`as_dict` is the
+``start`` of ``tma track --json``.
 """
 
 from __future__ import annotations
@@ -29,10 +30,10 @@ from ..batch.ml import plausible_chi2
 from ..core import chi2
 from ..core.arrays import Array
 from ..data import MeasurementSet
-from ..filters import BearingPrior, FirstBearing, Track, first_bearing, group_times
+from ..filters import BearingPrior, FirstBearing, Track, first_bearing
 from ..measurements import model_for
 from ..motion import ConstantVelocity
-from ..observation import ObservationModel
+from ..observation import ObservationModel, time_blocks
 from ..results.estimate import EstimateResult
 from .errors import MissingNuisanceError, StartError, TrackingError
 from .filter_setup import FilterSetup, state_vector
@@ -407,7 +408,7 @@ class _Windows:
                  max_relative_std: float = DEFAULT_MAX_RELATIVE_STD) -> None:
         self.meas, self.dim, self.options, self.fit_p_value = meas, dim, options, fit_p_value
         self.max_relative_std = max_relative_std
-        self.groups = group_times(meas)
+        self.order, self.bounds = time_blocks(meas.time)  # time k: order[bounds[k]:bounds[k + 1]]
         self.tried: dict[int, WindowEstimate] = {}
         self.warm: set[int] = set()  # windows whose fit started from another's estimate
         # With bearings the search without a guess keeps the fit from its best grid start when
@@ -416,7 +417,7 @@ class _Windows:
         self.can_warm = "bearing" in meas.kinds
 
     def __len__(self) -> int:
-        return len(self.groups)
+        return len(self.bounds) - 1
 
     def __call__(self, k: int, near: int | None = None) -> WindowEstimate:
         """Give window ``k``'s estimate; ``near``: a fitted window whose estimate may start it.
@@ -426,9 +427,9 @@ class _Windows:
         guess, as if no guess had been tried.
         """
         if k not in self.tried:
-            start = self.tried[near].estimate if near is not None and self.can_warm else None
-            if start is not None:
-                w = self._fit(k, start)
+            start = self.tried.get(near) if near is not None and self.can_warm else None
+            if start is not None and not start.problem:  # (converged, observable)
+                w = self._fit(k, start.estimate)
                 if self._clear(w):
                     self.warm.add(k)
                     self.tried[k] = w
@@ -438,7 +439,7 @@ class _Windows:
 
     def _fit(self, k: int, near: EstimateResult | None = None) -> WindowEstimate:
         """Fit the first ``k`` times without a guess, or from ``near`` moved to their end."""
-        rows = self.meas.take(np.concatenate(self.groups[:k]))
+        rows = self.meas.take(self.order[:self.bounds[k]])
         time = float(rows.time.max())
         init = None
         if near is not None:
@@ -475,8 +476,7 @@ class _Windows:
                 and (p is None or not self.fit_p_value / 2 <= p <= 2 * self.fit_p_value))
 
     def choice(self, k: int) -> WindowChoice | None:
-        """Give window ``k`` as the choice, its fit the search without a guess; None when that
-        fit does not make it a start (a warm-started decision overturned)."""
+        """Give window ``k`` fitted without a guess as the choice; None if it is then no start."""
         if k in self.warm:
             self.warm.discard(k)
             self.tried[k] = self._fit(k)
@@ -577,8 +577,9 @@ def search_window(meas: MeasurementSet, dim: int,
 def _bisect(windows: _Windows, min_window: int, warm: bool) -> WindowChoice | None:
     """Double the window until it qualifies, then bisect down to the shortest that does.
 
-    With ``warm``, each bisection fit starts from the estimate of the shortest good window so
-    far; None when the chosen window's fit without a guess does not qualify.
+    With ``warm``, each fit may start from the estimate of the window tried before it (doubling)
+    or of the shortest good window so far (bisection); None when the chosen window's fit
+    without a guess does not qualify.
     """
     n = len(windows)
 
@@ -588,7 +589,7 @@ def _bisect(windows: _Windows, min_window: int, warm: bool) -> WindowChoice | No
 
     k = min(max(int(min_window), 1), n)
     bad = k - 1
-    while not good(k):
+    while not good(k, bad):
         if k == n:
             raise windows.no_start(windows.max_relative_std)
         bad = k
