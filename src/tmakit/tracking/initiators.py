@@ -427,9 +427,9 @@ class _Windows:
         guess, as if no guess had been tried.
         """
         if k not in self.tried:
-            start = self.tried.get(near) if near is not None and self.can_warm else None
-            if start is not None and not start.problem:  # (converged, observable)
-                w = self._fit(k, start.estimate)
+            start = self.tried[near].estimate if near is not None and self.can_warm else None
+            if start is not None:
+                w = self._fit(k, start)
                 if self._clear(w):
                     self.warm.add(k)
                     self.tried[k] = w
@@ -577,9 +577,9 @@ def search_window(meas: MeasurementSet, dim: int,
 def _bisect(windows: _Windows, min_window: int, warm: bool) -> WindowChoice | None:
     """Double the window until it qualifies, then bisect down to the shortest that does.
 
-    With ``warm``, each fit may start from the estimate of the window tried before it (doubling)
-    or of the shortest good window so far (bisection); None when the chosen window's fit
-    without a guess does not qualify.
+    With ``warm``, each bisection fit may start from the estimate of the shortest good window so
+    far (not a doubling fit from a shorter window's: that can end in another minimum); None
+    when the chosen window's fit without a guess does not qualify.
     """
     n = len(windows)
 
@@ -589,7 +589,7 @@ def _bisect(windows: _Windows, min_window: int, warm: bool) -> WindowChoice | No
 
     k = min(max(int(min_window), 1), n)
     bad = k - 1
-    while not good(k, bad):
+    while not good(k):
         if k == n:
             raise windows.no_start(windows.max_relative_std)
         bad = k
