@@ -6,7 +6,9 @@ unchanged (rotations about sensors, translations, scalings about a sensor).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property, partial
 from typing import cast
 
 import numpy as np
@@ -77,19 +79,26 @@ class Observability:
         Of the normalised information.
     null_basis : ndarray, shape (size, size - rank)
         Unit basis of the null space, physical units.
-    directions : list of Direction
     observable : ndarray of bool, shape (size,)
     decomposition : tuple of ndarray, optional
         Eigenvalues (ascending), eigenvectors and normalisation ``D`` the rank came from.
+    describe : callable, optional
+        Gives :attr:`directions` (called on first use; None: no unobservable direction).
     """
 
     rank: int
     size: int
     condition: float
     null_basis: NDArray[np.float64]
-    directions: list[Direction]
     observable: NDArray[np.bool_]
     decomposition: Decomposition | None = field(default=None, repr=False, compare=False)
+    describe: Callable[[], list[Direction]] | None = field(default=None, repr=False,
+                                                           compare=False)
+
+    @cached_property
+    def directions(self) -> list[Direction]:
+        """The unobservable directions, named (made on first use: many fits need the rank only)."""
+        return [] if self.describe is None else self.describe()
 
     @property
     def full_rank(self) -> bool:
@@ -241,8 +250,8 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
     low, high = float(evals[0]), float(evals[-1])
     top = max(high, _TINY)
     if low > RANK_TOL * top:  # full rank (eigenvalues ascending), said in floats
-        return Observability(size, size, top / low, np.zeros((size, 0)), [],
-                             np.array([True] * size), (evals, evecs, scale))
+        return Observability(size, size, top / low, np.zeros((size, 0)),
+                             np.ones(size, dtype=bool), (evals, evecs, scale))
     null = evals <= RANK_TOL * top
     rank = int(size - null.sum())
     positive = evals[~null]
@@ -254,12 +263,13 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
     observable = np.ones(size, dtype=bool)
     if null_norm.size:
         observable = np.linalg.norm(null_norm, axis=1) < 1e-6
-    directions: list[Direction] = []
+    describe = None
     if rank < size:
         norm = normalise(info)[0] if norm is None else norm
-        directions = _describe(null_norm, scale, names, norm, top, meas, motion, theta, unseen)
-    return Observability(rank, size, condition, null_phys, directions, observable,
-                         (evals, evecs, scale))
+        describe = partial(_describe, null_norm, scale, names, norm, top, meas, motion,
+                           np.array(theta, dtype=float), unseen)
+    return Observability(rank, size, condition, null_phys, observable,
+                         (evals, evecs, scale), describe)
 
 
 def _range_by_shape(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np.float64],

@@ -8,8 +8,10 @@ least twice as long when the next updates' summed NIS is improbable (p below
 ``confirm_p_value``).  A window's estimate is a good start when it converged, every state
 component is observable and the position's largest 1-sigma semi-axis is below
 ``max_relative_std`` times the range (``docs/tracking.md``): :func:`search_window` doubles the
-window from ``min_window`` until it qualifies, then bisects down to the shortest that does.  The
-records' :meth:`as_dict` is the ``start`` of ``tma track --json``.
+window from ``min_window`` until it qualifies, then bisects down to the shortest that does (with
+bearings a fit may start from a neighbouring window's estimate where that decides the window
+clearly; the chosen window is fitted without a guess).  The records' :meth:`as_dict` is the
+``start`` of ``tma track --json``.
 """
 
 from __future__ import annotations
@@ -24,13 +26,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..batch import estimate
+from ..batch.ml import plausible_chi2
 from ..core import chi2
 from ..core.arrays import Array
 from ..data import MeasurementSet
-from ..filters import BearingPrior, FirstBearing, Track, first_bearing, group_times
+from ..filters import BearingPrior, FirstBearing, Track, first_bearing
 from ..measurements import model_for
 from ..motion import ConstantVelocity
-from ..observation import ObservationModel
+from ..observation import ObservationModel, time_blocks
 from ..results.estimate import EstimateResult
 from .errors import MissingNuisanceError, StartError, TrackingError
 from .filter_setup import FilterSetup, state_vector
@@ -48,6 +51,11 @@ DEFAULT_MAX_RELATIVE_STD = 0.25
 CONFIRM_P_VALUE = 1e-3
 #: The smallest initial window tried (distinct measurement times).
 MIN_WINDOW = 8
+#: A bisection fit started from a neighbouring window's estimate decides its window only when
+#: its start quality is off the threshold by more than this fraction of it (the solver's
+#: tolerance moved it by up to 0.5 % over the built-in scenarios); else the window is fitted
+#: without a guess.
+WARM_MARGIN = 0.02
 #: A batch start's nuisance value, held fixed by the filter, biases the track beyond its
 #: covariances when a one-sigma error in it adds more than this to the chi-square of the rows
 #: that follow.
@@ -396,37 +404,84 @@ class _Windows:
     """The batch estimates of the initial windows of one set, each computed once."""
 
     def __init__(self, meas: MeasurementSet, dim: int,
-                 options: Mapping[str, Mapping[str, object]] | None, fit_p_value: float = 0.0
-                 ) -> None:
+                 options: Mapping[str, Mapping[str, object]] | None, fit_p_value: float = 0.0,
+                 max_relative_std: float = DEFAULT_MAX_RELATIVE_STD) -> None:
         self.meas, self.dim, self.options, self.fit_p_value = meas, dim, options, fit_p_value
-        self.groups = group_times(meas)
+        self.max_relative_std = max_relative_std
+        self.order, self.bounds = time_blocks(meas.time)  # time k: order[bounds[k]:bounds[k + 1]]
         self.tried: dict[int, WindowEstimate] = {}
+        self.warm: set[int] = set()  # windows whose fit started from another's estimate
+        # With bearings the search without a guess keeps the fit from its best grid start when
+        # that fit is plausible: as local as a warm start.  Without, it takes the best of
+        # several starts' fits, and a warm start may end in another minimum.
+        self.can_warm = "bearing" in meas.kinds
 
     def __len__(self) -> int:
-        return len(self.groups)
+        return len(self.bounds) - 1
 
-    def __call__(self, k: int) -> WindowEstimate:
+    def __call__(self, k: int, near: int | None = None) -> WindowEstimate:
+        """Give window ``k``'s estimate; ``near``: a fitted window whose estimate may start it.
+
+        A fit from that guess stands when it decides the window clearly (see :meth:`_clear`);
+        else, and for the chosen window (:meth:`choice`), the fit is the search without a
+        guess, as if no guess had been tried.
+        """
         if k not in self.tried:
-            rows = self.meas.take(np.concatenate(self.groups[:k]))
-            time = float(rows.time.max())
-            try:
-                result = estimate(rows, ConstantVelocity(self.dim, time), options=self.options)
-            except ValueError as e:  # e.g. no finite starting point on a tiny window
-                self.tried[k] = WindowEstimate(k, time, len(rows), None, np.inf, f"failed: {e}")
-            else:
-                rel = (_relative_std(result, rows, time, self.dim)
-                       if result.status == "converged" else None)
-                problem = "" if rel is not None else result.status + (
-                    f": {result.message}" if result.message else "")
-                p = result.chi2_p_value
-                if not problem and p is not None and p < self.fit_p_value:
-                    rel, problem = None, (f"an improbable fit (chi2 {result.chi2:.4g} on "
-                                          f"{result.dof} dof, p = {p:.2g})")
-                self.tried[k] = WindowEstimate(k, time, len(rows), result,
-                                               np.inf if rel is None else rel, problem)
+            start = self.tried[near].estimate if near is not None and self.can_warm else None
+            if start is not None:
+                w = self._fit(k, start)
+                if self._clear(w):
+                    self.warm.add(k)
+                    self.tried[k] = w
+                    return w
+            self.tried[k] = self._fit(k)
         return self.tried[k]
 
-    def choice(self, k: int) -> WindowChoice:
+    def _fit(self, k: int, near: EstimateResult | None = None) -> WindowEstimate:
+        """Fit the first ``k`` times without a guess, or from ``near`` moved to their end."""
+        rows = self.meas.take(self.order[:self.bounds[k]])
+        time = float(rows.time.max())
+        init = None
+        if near is not None:
+            state = near.motion.states(near.estimate, np.array([time]))[0]
+            init = np.concatenate([state[:self.dim], state[3:3 + self.dim]])
+        try:
+            result = estimate(rows, ConstantVelocity(self.dim, time), init=init,
+                              options=self.options)
+        except ValueError as e:  # e.g. no finite starting point on a tiny window
+            return WindowEstimate(k, time, len(rows), None, np.inf, f"failed: {e}")
+        rel = (_relative_std(result, rows, time, self.dim)
+               if result.status == "converged" else None)
+        problem = "" if rel is not None else result.status + (
+            f": {result.message}" if result.message else "")
+        p = result.chi2_p_value
+        if not problem and p is not None and p < self.fit_p_value:
+            rel, problem = None, (f"an improbable fit (chi2 {result.chi2:.4g} on "
+                                  f"{result.dof} dof, p = {p:.2g})")
+        return WindowEstimate(k, time, len(rows), result, np.inf if rel is None else rel,
+                              problem)
+
+    def _clear(self, w: WindowEstimate) -> bool:
+        """Tell whether a warm-started fit decides its window as the search without a guess.
+
+        It must have converged to a fit the search would accept from its first start
+        (observable, a plausible chi-square), with the start quality and the fit's p-value
+        off their thresholds by more than the solver's tolerance can move them.
+        """
+        res = w.estimate
+        if res is None or w.problem or not plausible_chi2(res.chi2, res.dof):
+            return False
+        p = res.chi2_p_value
+        return (abs(w.relative_position_std / self.max_relative_std - 1.0) > WARM_MARGIN
+                and (p is None or not self.fit_p_value / 2 <= p <= 2 * self.fit_p_value))
+
+    def choice(self, k: int) -> WindowChoice | None:
+        """Give window ``k`` fitted without a guess as the choice; None if it is then no start."""
+        if k in self.warm:
+            self.warm.discard(k)
+            self.tried[k] = self._fit(k)
+            if self.tried[k].relative_position_std >= self.max_relative_std:
+                return None
         return WindowChoice(self(k), len(self.tried))
 
     def no_start(self, max_relative_std: float) -> StartError:
@@ -492,7 +547,7 @@ def search_window(meas: MeasurementSet, dim: int,
     StartError
         The chosen window's estimate is no start, or no window qualifies.
     """
-    windows = _Windows(meas, dim, options, fit_p_value)
+    windows = _Windows(meas, dim, options, fit_p_value, max_relative_std)
     n = len(windows)
     if n == 0:
         raise TrackingError("the measurement set is empty: nothing to track")
@@ -507,25 +562,41 @@ def search_window(meas: MeasurementSet, dim: int,
             raise StartError(f"the batch estimate over the first {k} measurement times "
                              f"(t <= {w.time:g} s) {verb}{w.problem}; use a longer window or "
                              "give a prior", "init_window")
-        return windows.choice(k)
+        return WindowChoice(w, len(windows.tried))
     if not max_relative_std > 0:
         raise TrackingError(f"max_relative_std must be > 0, got {max_relative_std}",
                             "max_relative_std")
+    found = _bisect(windows, min_window, warm=True)
+    if found is None:  # the fit without a guess overturned a warm-started decision
+        found = _bisect(_Windows(meas, dim, options, fit_p_value, max_relative_std),
+                        min_window, warm=False)
+    assert found is not None
+    return found
 
-    def good(k: int) -> bool:
-        return windows(k).relative_position_std < max_relative_std
 
-    # Double the window until it qualifies, then bisect down to the shortest that does.
+def _bisect(windows: _Windows, min_window: int, warm: bool) -> WindowChoice | None:
+    """Double the window until it qualifies, then bisect down to the shortest that does.
+
+    With ``warm``, each bisection fit may start from the estimate of the shortest good window so
+    far (not a doubling fit from a shorter window's: that can end in another minimum); None
+    when the chosen window's fit without a guess does not qualify.
+    """
+    n = len(windows)
+
+    def good(k: int, near: int | None = None) -> bool:
+        w = windows(k, near if warm else None)
+        return w.relative_position_std < windows.max_relative_std
+
     k = min(max(int(min_window), 1), n)
     bad = k - 1
     while not good(k):
         if k == n:
-            raise windows.no_start(max_relative_std)
+            raise windows.no_start(windows.max_relative_std)
         bad = k
         k = min(2 * k, n)
     while k - bad > 1:
         mid = (k + bad) // 2
-        if good(mid):
+        if good(mid, k):
             k = mid
         else:
             bad = mid
