@@ -269,6 +269,28 @@ def test_ho_xu_reaches_the_bound_at_small_noise():
             assert 0.75 < ratio < 1.3, (which, block, ratio)
 
 
+def test_the_ml_starts_at_the_closed_form_of_interleaved_tdoa_and_fdoa_rows():
+    """Ho & Xu's rows alternate TDOA and FDOA: the ML's start is the closed form of the set's
+    own rows (not of the rows regrouped by kind), which settles every fit at small noise, and
+    a batch of data sets gives each set's own closed form."""
+    from tmakit.batch.hyperbolic import closed_form_many, closed_form_theta
+    from tmakit.batch.ml import MaximumLikelihood
+    from tmakit.reproduce import ho_xu2004
+
+    scenario = ho_xu2004.scenario_at(0.1)
+    sets = scenario.simulate_many([1, 2, 3])
+    assert list(sets[0].kind[:2]) == ["tdoa", "fdoa"]
+    ys = np.stack([m.value_si for m in sets])
+    batch = closed_form_many(sets[0], ys, scenario.motion, scenario.measurement_options)
+    one = [closed_form_theta(m, m.value_si, scenario.motion, scenario.measurement_options)
+           for m in sets]
+    assert batch is not None and np.allclose(batch, np.stack(one), rtol=1e-9, atol=1e-9)
+    bound = tk.crlb(scenario)
+    assert np.all(np.abs(batch - scenario.theta) < 5 * bound.std)
+    fits = MaximumLikelihood().fit_many(sets, scenario.motion)
+    assert all(f.starts == 1 and f.converged for f in fits)  # type: ignore[union-attr]
+
+
 def test_chan_ho_method_and_refusals():
     from tmakit.batch.methods import estimate_with
     from tmakit.reproduce import chan_ho1994

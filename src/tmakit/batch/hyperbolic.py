@@ -30,12 +30,18 @@ __all__ = ["ChanHo", "HoXu", "Snapshot", "closed_form_theta", "snapshot_rows",
 MAX_SNAPSHOT_ROWS = 400  # most rows one solve takes (its weights: a dense square of this size)
 
 
+def _t(a: Array) -> Array:
+    return np.swapaxes(a, -1, -2)
+
+
 def _solve_weighted(g: Array, h: Array, cov: Array) -> tuple[Array, Array]:
-    """Give ``(G' W G)^-1 G' W h`` and ``(G' W G)^-1`` with ``W = cov^-1`` (pseudo-inverses)."""
-    w = np.linalg.pinv(cov, hermitian=True)
-    info = g.T @ w @ g
-    inv = np.asarray(np.linalg.pinv(info, hermitian=True), dtype=np.float64)
-    solution: Array = inv @ (g.T @ (w @ h))
+    """Give ``(G' W G)^-1 G' W h`` and ``(G' W G)^-1`` with ``W = cov^-1`` (pseudo-inverses).
+
+    Each of ``g (..., M, K)``, ``h (..., M)``, ``cov (..., M, M)`` may carry leading batch axes.
+    """
+    gtw = _t(g) @ np.linalg.pinv(cov, hermitian=True)
+    inv = np.asarray(np.linalg.pinv(gtw @ g, hermitian=True), dtype=np.float64)
+    solution: Array = (inv @ (gtw @ h[..., None]))[..., 0]
     return solution, inv
 
 
@@ -43,11 +49,15 @@ def two_stage_wls(sensors: Array, ref: Array, rd: Array, cov: Array,
                   sensor_vel: Array | None = None, ref_vel: Array | None = None,
                   rrd: Array | None = None, height: float | None = None
                   ) -> tuple[Array, Array | None]:
-    """Locate a source from range (and range-rate) differences against one reference."""
+    """Locate a source from range (and range-rate) differences against one reference.
+
+    ``rd`` (and ``rrd``) may carry leading batch axes ``(..., m)``: one solve per data set.
+    """
+    rd = np.asarray(rd, dtype=float)
     moving = rrd is not None
     free = [0, 1] if height is not None else [0, 1, 2]
     n = len(free)
-    m = rd.shape[0]
+    m = rd.shape[-1]
     if m < n + 1:
         raise ValueError(f"{m} differences for {n + 1} unknowns of stage 1 (the source's "
                          f"{n} coordinates and its range from the reference): at least "
@@ -56,22 +66,24 @@ def two_stage_wls(sensors: Array, ref: Array, rd: Array, cov: Array,
     if height is not None:
         known[2] = height
     g, h = _stage_one(sensors, ref, rd, free, known, sensor_vel, ref_vel, rrd)
-    b = np.eye(g.shape[0])
+    batch = rd.shape[:-1]
+    diag = np.arange(m)
     phi, cov1 = _solve_weighted(g, h, cov)
     for _ in range(2):  # the weights from the estimate (Chan & Ho (1994): B = 2 diag(r_i))
-        pos = known.copy()
-        pos[free] = phi[:n]
-        r = np.linalg.norm(pos - sensors, axis=1)
-        b = np.zeros_like(b)
-        b[:m, :m] = 2.0 * np.diag(r)
+        pos = np.broadcast_to(known, (*batch, 3)).copy()
+        pos[..., free] = phi[..., :n]
+        rel = pos[..., None, :] - sensors
+        r = np.linalg.norm(rel, axis=-1)
+        b = np.zeros((*batch, g.shape[-2], g.shape[-2]))
+        b[..., diag, diag] = 2.0 * r
         if moving:
             assert sensor_vel is not None
-            vel = np.zeros(3)
-            vel[free] = phi[n + 1:2 * n + 1]
-            rdot = np.sum((pos - sensors) * (vel - sensor_vel), axis=1) / r
-            b[m:, :m] = 2.0 * np.diag(rdot)
-            b[m:, m:] = 2.0 * np.diag(r)
-        phi, cov1 = _solve_weighted(g, h, b @ cov @ b.T)
+            vel = np.zeros((*batch, 3))
+            vel[..., free] = phi[..., n + 1:2 * n + 1]
+            rdot = np.sum(rel * (vel[..., None, :] - sensor_vel), axis=-1) / r
+            b[..., m + diag, diag] = 2.0 * rdot
+            b[..., m + diag, m + diag] = 2.0 * r
+        phi, cov1 = _solve_weighted(g, h, b @ cov @ _t(b))
     return _stage_two(phi, cov1, ref, ref_vel, known, free, moving)
 
 
@@ -79,67 +91,70 @@ def _stage_one(sensors: Array, ref: Array, rd: Array, free: list[int], known: Ar
                sensor_vel: Array | None, ref_vel: Array | None, rrd: Array | None
                ) -> tuple[Array, Array]:
     """Give stage 1's ``G`` and ``h`` (the squared TDOA equations and their time derivative)."""
-    n, m, moving = len(free), rd.shape[0], rrd is not None
+    n, moving = len(free), rrd is not None
     ds = sensors - ref
-    g_t = np.zeros((m, 2 * (n + 1) if moving else n + 1))
-    g_t[:, :n] = -2.0 * ds[:, free]
-    g_t[:, n] = -2.0 * rd
+    g_t = np.zeros((*rd.shape, 2 * (n + 1) if moving else n + 1))
+    g_t[..., :n] = -2.0 * ds[:, free]
+    g_t[..., n] = -2.0 * rd
     h_t = rd**2 - np.sum(sensors**2, axis=1) + ref @ ref + 2.0 * ds[:, 2] * known[2] * (n == 2)
     if not moving:
         return g_t, h_t
     assert sensor_vel is not None and ref_vel is not None and rrd is not None
     dv = sensor_vel - ref_vel
     g_f = np.zeros_like(g_t)
-    g_f[:, :n] = -2.0 * dv[:, free]
-    g_f[:, n] = -2.0 * rrd
-    g_f[:, n + 1:2 * n + 1] = -2.0 * ds[:, free]
-    g_f[:, 2 * n + 1] = -2.0 * rd
+    g_f[..., :n] = -2.0 * dv[:, free]
+    g_f[..., n] = -2.0 * rrd
+    g_f[..., n + 1:2 * n + 1] = -2.0 * ds[:, free]
+    g_f[..., 2 * n + 1] = -2.0 * rd
     h_f = (2.0 * rd * rrd - 2.0 * np.sum(sensors * sensor_vel, axis=1) + 2.0 * ref @ ref_vel
            + 2.0 * dv[:, 2] * known[2] * (n == 2))
-    return np.vstack([g_t, g_f]), np.concatenate([h_t, h_f])
+    return np.concatenate([g_t, g_f], axis=-2), np.concatenate([h_t, h_f], axis=-1)
 
 
 def _stage_two(phi: Array, cov1: Array, ref: Array, ref_vel: Array | None, known: Array,
                free: list[int], moving: bool) -> tuple[Array, Array | None]:
     """Impose ``r_1 = |u - s_1|`` (and its rate) on stage 1 in the squared coordinates."""
     n = len(free)
+    batch = phi.shape[:-1]
     fixed = [k for k in range(3) if k not in free]
-    d = phi[:n] - ref[free]
-    r1 = phi[n]
+    d = phi[..., :n] - ref[free]
+    r1 = phi[..., n]
     off = known[fixed] - ref[fixed]
     size = 2 * (n + 1) if moving else n + 1
     g2 = np.zeros((size, 2 * n if moving else n))
     g2[:n, :n] = np.eye(n)
     g2[n, :n] = 1.0
-    h2 = np.concatenate([d**2, [r1**2 - off @ off]])
-    b2 = np.zeros((size, size))
-    b2[:n, :n] = 2.0 * np.diag(d)
-    b2[n, n] = 2.0 * r1
+    h2 = np.concatenate([d**2, (r1**2 - off @ off)[..., None]], axis=-1)
+    b2 = np.zeros((*batch, size, size))
+    diag = np.arange(n)
+    b2[..., diag, diag] = 2.0 * d
+    b2[..., n, n] = 2.0 * r1
     if moving:
         assert ref_vel is not None
-        dd = phi[n + 1:2 * n + 1] - ref_vel[free]
-        r1dot = phi[2 * n + 1]
+        dd = phi[..., n + 1:2 * n + 1] - ref_vel[free]
+        r1dot = phi[..., 2 * n + 1]
         off_dot = -ref_vel[fixed]
         g2[n + 1:2 * n + 1, n:] = np.eye(n)
         g2[2 * n + 1, n:] = 1.0
-        h2 = np.concatenate([h2, d * dd, [r1 * r1dot - off @ off_dot]])
-        b2[n + 1:2 * n + 1, :n] = np.diag(dd)
-        b2[n + 1:2 * n + 1, n + 1:2 * n + 1] = np.diag(d)
-        b2[2 * n + 1, n] = r1dot
-        b2[2 * n + 1, 2 * n + 1] = r1
-    phi2, _ = _solve_weighted(g2, h2, b2 @ cov1 @ b2.T)
+        h2 = np.concatenate([h2, d * dd, (r1 * r1dot - off @ off_dot)[..., None]], axis=-1)
+        b2[..., n + 1 + diag, diag] = dd
+        b2[..., n + 1 + diag, n + 1 + diag] = d
+        b2[..., 2 * n + 1, n] = r1dot
+        b2[..., 2 * n + 1, 2 * n + 1] = r1
+    phi2, _ = _solve_weighted(g2, h2, b2 @ cov1 @ _t(b2))
     sign = np.where(d < 0, -1.0, 1.0)
-    root = sign * np.sqrt(np.abs(phi2[:n]))
-    pos = known.copy()
-    pos[free] = ref[free] + root
+    root = sign * np.sqrt(np.abs(phi2[..., :n]))
+    pos = np.broadcast_to(known, (*batch, 3)).copy()
+    pos[..., free] = ref[free] + root
     if not moving:
         return pos, None
     assert ref_vel is not None
-    vel = np.zeros(3)
+    vel = np.zeros((*batch, 3))
     # (u - s_1)(u_dot - s_dot_1) over (u - s_1); stage 1's velocity where that is near 0
-    tiny = np.abs(root) < 1e-9 * max(1.0, float(np.max(np.abs(root))))
-    vel[free] = np.where(tiny, phi[n + 1:2 * n + 1],
-                         ref_vel[free] + phi2[n:] / np.where(tiny, 1.0, root))
+    scale = np.maximum(1.0, np.max(np.abs(root), axis=-1, keepdims=True))
+    tiny = np.abs(root) < 1e-9 * scale
+    vel[..., free] = np.where(tiny, phi[..., n + 1:2 * n + 1],
+                              ref_vel[free] + phi2[..., n:] / np.where(tiny, 1.0, root))
     return pos, vel
 
 
@@ -194,9 +209,12 @@ def _covariance(meas: MeasurementSet, rows: NDArray[np.intp], kind: str) -> Arra
 def closed_form_state(meas: MeasurementSet, values: Array, snap: Snapshot,
                       carrier: float | None, height: float | None
                       ) -> tuple[Array, Array | None]:
-    """Solve one snapshot: the source position (and velocity, with FDOAs) at its time."""
+    """Solve one snapshot: the source position (and velocity, with FDOAs) at its time.
+
+    ``values`` are the set's, ``(n,)`` or ``(..., n)`` (one solve per data set).
+    """
     t = snap.tdoa
-    rd = SPEED_OF_LIGHT * values[t]
+    rd = SPEED_OF_LIGHT * values[..., t]
     cov = SPEED_OF_LIGHT**2 * _covariance(meas, t, "tdoa")
     ref = meas.ref_sensor_state[t[0]]
     if snap.fdoa is None or carrier is None:
@@ -208,7 +226,7 @@ def closed_form_state(meas: MeasurementSet, values: Array, snap: Snapshot,
     full[:m, :m] = cov
     full[m:, m:] = scale**2 * _covariance(meas, f, "fdoa")
     return two_stage_wls(meas.sensor_state[t, :3], ref[:3], rd, full,
-                         meas.sensor_state[t, 3:], ref[3:], scale * values[f], height)
+                         meas.sensor_state[t, 3:], ref[3:], scale * values[..., f], height)
 
 
 def _known_carrier(meas: MeasurementSet, options: Options) -> float | None:
@@ -220,10 +238,15 @@ def _known_carrier(meas: MeasurementSet, options: Options) -> float | None:
 
 def solve_snapshot(meas: MeasurementSet, values: Array, snap: Snapshot, carrier: float | None,
                    motion: MotionModel) -> Array:
-    """Solve a snapshot for the motion parameters, at the height known (plane or ellipsoid)."""
+    """Solve a snapshot for the motion parameters, at the height known (plane or ellipsoid).
+
+    ``values`` may be ``(B, n)``: ``(B, p)`` solutions.
+    """
     flat = motion.dim == 2
     rows = np.flatnonzero(meas.kind_mask("altitude"))
     stated = None if flat else Altitude.options_from_metadata(meas.metadata).get("origin")
+    if values.ndim == 2 and not (flat or rows.size == 0 or stated is None):
+        return np.stack([solve_snapshot(meas, v, snap, carrier, motion) for v in values])
     if flat or rows.size == 0 or stated is None:
         pos, vel = closed_form_state(meas, values, snap, carrier, 0.0 if flat else None)
     else:
@@ -234,13 +257,23 @@ def solve_snapshot(meas: MeasurementSet, values: Array, snap: Snapshot, carrier:
             pos, vel = closed_form_state(meas, values, snap, carrier, up)
             lat, lon, _ = enu_to_geodetic(pos[0], pos[1], pos[2], origin)
             up = float(geodetic_to_enu(lat, lon, height, origin)[2])
-    return motion.from_state(np.concatenate([pos, np.zeros(3) if vel is None else vel]),
-                             snap.time)
+    return motion.from_state(np.concatenate([pos, np.zeros_like(pos) if vel is None else vel],
+                                            axis=-1), snap.time)
 
 
 def closed_form_theta(meas: MeasurementSet, values: Array, motion: MotionModel,
                       options: Options = None) -> Array | None:
     """Give a start of the motion parameters from the set's best closed form, or None."""
+    theta = closed_form_many(meas, values[None], motion, options)
+    return None if theta is None or not np.all(np.isfinite(theta[0])) else theta[0]
+
+
+def closed_form_many(meas: MeasurementSet, ys: Array, motion: MotionModel,
+                     options: Options = None) -> Array | None:
+    """Solve the set's best closed form for each data set ``ys (B, n)`` (the set's row order).
+
+    Gives ``(B, p)``, a row of NaN where a solve failed, or None when the set has no snapshot.
+    """
     moving = not isinstance(motion, Stationary)
     carrier = _known_carrier(meas, options)
     snap = None
@@ -250,11 +283,17 @@ def closed_form_theta(meas: MeasurementSet, values: Array, motion: MotionModel,
         snap = snapshot_rows(meas, moving, False)
     if snap is None:
         return None
+    failed = (ValueError, NotImplementedError, np.linalg.LinAlgError)
     try:
-        theta = solve_snapshot(meas, values, snap, carrier, motion)
-    except (ValueError, NotImplementedError, np.linalg.LinAlgError):
-        return None
-    return theta if np.all(np.isfinite(theta)) else None
+        with np.errstate(invalid="ignore", divide="ignore"):
+            theta = np.asarray(solve_snapshot(meas, ys, snap, carrier, motion), dtype=float)
+    except failed:
+        if ys.shape[0] == 1:
+            return np.full((1, motion.n_params), np.nan)
+        theta = np.concatenate([closed_form_many(meas, y[None], motion, options)
+                                for y in ys])
+    theta[~np.all(np.isfinite(theta), axis=1)] = np.nan
+    return theta
 
 
 @dataclass(frozen=True, eq=False)
@@ -335,12 +374,10 @@ class HoXu(_ClosedForm):
 
 
 def closed_form_starts(obs: ObservationModel, ys: Array) -> dict[int, Array]:
-    """Give the closed-form start of each data set of a problem with TDOA rows."""
+    """Give the closed-form start of each data set ``ys (B, n)`` (the set's row order)."""
     if "tdoa" not in obs.models:
         return {}
-    out = {}
-    for r in range(ys.shape[0]):
-        theta = closed_form_theta(obs.grouped, ys[r], obs.motion, obs.options)
-        if theta is not None:
-            out[r] = theta[None, :]
-    return out
+    theta = closed_form_many(obs.meas, ys, obs.motion, obs.options)
+    if theta is None:
+        return {}
+    return {r: theta[r][None, :] for r in range(ys.shape[0]) if np.isfinite(theta[r, 0])}

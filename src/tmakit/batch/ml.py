@@ -282,6 +282,9 @@ def solve_without_guess(problem: VarProProblem, ys: NDArray[np.float64],
 
     closed = closed_form_starts(problem.obs, ys)  # TDOA: Chan & Ho, Ho & Xu
     solve(closed)
+    for r in closed:  # a closed form's start that ran off (high noise) is left to the grid
+        if (fit := best[r]) is not None and not fit.converged:
+            best[r] = None
     todo = unsettled() if closed else list(range(b))
     if not todo:
         _prefer_above(problem, best)
