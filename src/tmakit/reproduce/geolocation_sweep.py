@@ -7,6 +7,11 @@ position (velocity) block.  The *threshold* of an estimator is the lowest noise 
 sweep at which its MSE exceeds the bound by more than its tolerance (1.1 for the maximum
 likelihood, 1.2 for the closed form) and stays above it at every higher level of the sweep:
 below it the estimator is efficient.
+
+Beside each MSE / CRLB, the MSE over that of the *linearised* efficient estimator on the same
+noise draws (the weighted least-squares step from the truth, whose mean squared error is the
+CRLB exactly): the draws' own luck cancels in that ratio, so its standard error is a fraction
+of the first's and it tells an estimator's own excess from Monte Carlo noise.
 """
 
 from __future__ import annotations
@@ -17,10 +22,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..batch.hyperbolic import closed_form_theta
+from ..batch.hyperbolic import closed_form_many
 from ..batch.ml import MaximumLikelihood
 from ..bounds import crlb
 from ..core.arrays import Array
+from ..data import MeasurementSet
+from ..observation import ObservationModel
+from ..observation.noise import NoiseModel
 from ..scenario import Scenario
 from .common import Reproduction, Section
 
@@ -45,6 +53,10 @@ class Sweep:
     #: ml_se, closed_se: the Monte Carlo standard error of each MSE (same units)
     ml_se: dict[str, list[float]] = field(default_factory=dict)
     closed_se: dict[str, list[float]] = field(default_factory=dict)
+    #: ml_paired, closed_paired: each MSE over the linearised efficient estimator's on the same
+    #: draws, and their standard errors (the ``_se`` keys)
+    ml_paired: dict[str, list[float]] = field(default_factory=dict)
+    closed_paired: dict[str, list[float]] = field(default_factory=dict)
     #: Runs per level whose maximum likelihood did not converge (counted in its MSE)
     failed: list[int] = field(default_factory=list)
 
@@ -115,22 +127,47 @@ def sweep(scenario_at: Callable[[float], Scenario], sigma_m: Sequence[float], ru
                             np.full(motion.n_params, np.nan)) - scn.theta for f in fits])
         out.failed.append(sum(isinstance(f, Exception) or f.status != "converged"
                               for f in fits))
-        closed_err = np.array([_closed(m.value_si, scn, m) for m in sets])
+        ys = np.stack([m.value_si for m in sets])
+        closed = closed_form_many(sets[0], ys, motion, scn.measurement_options)
+        closed_err = (np.full(ml_err.shape, np.nan) if closed is None else closed) - scn.theta
+        lin_err = linearised_errors(scn, sets[0], ys)
         for name, sl in blocks.items():
             out.crlb.setdefault(name, []).append(float(np.trace(bound.covariance[sl, sl])))
             for which, err in (("ml", ml_err), ("closed", closed_err)):
                 mse, se = _mse(err[:, sl])
                 getattr(out, which).setdefault(name, []).append(mse)
                 getattr(out, which + "_se").setdefault(name, []).append(se)
+                ratio, ratio_se = _paired(err[:, sl], lin_err[:, sl])
+                getattr(out, which + "_paired").setdefault(name, []).append(ratio)
+                getattr(out, which + "_paired").setdefault(name + "_se", []).append(ratio_se)
         if progress is not None:
             progress(k + 1)
     return out
 
 
-def _closed(values: Array, scn: Scenario, meas: object) -> Array:
-    theta = closed_form_theta(meas, values, scn.motion,  # type: ignore[arg-type]
-                              scn.measurement_options)
-    return (np.full(scn.motion.n_params, np.nan) if theta is None else theta) - scn.theta
+def linearised_errors(scn: Scenario, meas: MeasurementSet, ys: Array) -> Array:
+    """Give the error ``(B, p)`` of the linearised efficient estimator on each data set.
+
+    The weighted least-squares step from the truth on ``ys (B, n)`` (the set's row order): its
+    mean squared error is the CRLB.
+    """
+    obs = ObservationModel(meas, scn.motion, scn.measurement_options)
+    noise = NoiseModel(obs.grouped, obs.models)
+    nu = obs.nuisance_vector(scn.nuisance)
+    j_theta, j_nu = obs.jacobian_grouped(scn.theta, nu)
+    design = noise.whiten(np.concatenate([j_theta, np.broadcast_to(
+        j_nu, (j_theta.shape[0], j_nu.shape[-1]))], axis=1), axis=0)
+    resid = noise.whiten(ys[:, obs.order] - obs.predict_grouped(scn.theta, nu))
+    return np.asarray((resid @ np.linalg.pinv(design).T)[:, :scn.motion.n_params])
+
+
+def _paired(err: Array, lin: Array) -> tuple[float, float]:
+    """Give ``MSE(err) / MSE(lin)`` over the same runs and its standard error (delta method)."""
+    a, b = np.sum(np.square(err), axis=1), np.sum(np.square(lin), axis=1)
+    if not np.all(np.isfinite(a)) or a.size < 2:
+        return float("inf"), float("inf")
+    ratio = float(np.mean(a) / np.mean(b))
+    return ratio, float(np.std(a - ratio * b, ddof=1) / np.sqrt(a.size) / np.mean(b))
 
 
 def _mse(err: Array) -> tuple[float, float]:
@@ -150,11 +187,14 @@ def sweep_sections(result: Sweep, title: str) -> tuple[list[Section], dict[str, 
         unit = "m^2" if block == "position" else "(m/s)^2"
         r_ml, r_cf = result.ratio("ml", block), result.ratio("closed", block)
         se_ml, se_cf = result.ratio("ml", block, "_se"), result.ratio("closed", block, "_se")
+        p_ml, p_cf = result.ml_paired[block], result.closed_paired[block]
+        pe_ml, pe_cf = result.ml_paired[block + "_se"], result.closed_paired[block + "_se"]
         rows = [[_g(s), round(float(20 * np.log10(s)), 1), _g(c), _g(a), _g(b),
-                 f"{ra:.3f} ± {ea:.3f}", f"{rb:.3f} ± {eb:.3f}"]
-                for s, c, a, b, ra, ea, rb, eb in zip(
+                 f"{ra:.3f} ± {ea:.3f}", f"{pa:.3f} ± {qa:.3f}", f"{rb:.3f} ± {eb:.3f}",
+                 f"{pb:.3f} ± {qb:.3f}"]
+                for s, c, a, b, ra, ea, pa, qa, rb, eb, pb, qb in zip(
             result.sigma_m, result.crlb[block], result.ml[block], result.closed[block], r_ml,
-            se_ml, r_cf, se_cf, strict=True)]
+            se_ml, p_ml, pe_ml, r_cf, se_cf, p_cf, pe_cf, strict=True)]
         t_ml = threshold(result.sigma_m, r_ml, ML_TOLERANCE)
         t_cf = threshold(result.sigma_m, r_cf, CLOSED_TOLERANCE)
         note = ("threshold (the noise level from which on MSE/CRLB stays past the "
@@ -164,12 +204,20 @@ def sweep_sections(result: Sweep, title: str) -> tuple[list[Section], dict[str, 
         sections.append(Section(
             f"{title}: {block} MSE against noise",
             ["sigma (m)", "sigma^2 (dB)", f"CRLB ({unit})", f"ML MSE ({unit})",
-             f"closed MSE ({unit})", "ML/CRLB", "closed/CRLB"], rows,
+             f"closed MSE ({unit})", "ML/CRLB", "ML/lin.", "closed/CRLB", "closed/lin."],
+            rows,
             note + f"; ML runs not converged per level: {result.failed}; ±SE: the ratio's "
-            "Monte Carlo standard error"))
+            "Monte Carlo standard error; /lin.: MSE over the linearised efficient estimator's "
+            "on the same draws (the draws' luck cancels: above 1 by more than its SE is the "
+            "estimator's own excess)"))
         figures[f"{block}_ml_ratio"] = r_ml
         figures[f"{block}_closed_ratio"] = r_cf
         figures[f"{block}_ml_ratio_se"] = se_ml
+        figures[f"{block}_closed_ratio_se"] = se_cf
+        figures[f"{block}_ml_over_linearised"] = p_ml
+        figures[f"{block}_ml_over_linearised_se"] = pe_ml
+        figures[f"{block}_closed_over_linearised"] = p_cf
+        figures[f"{block}_closed_over_linearised_se"] = pe_cf
         figures[f"{block}_ml_threshold_m"] = t_ml
         figures[f"{block}_closed_threshold_m"] = t_cf
     return sections, figures
