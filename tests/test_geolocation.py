@@ -296,6 +296,18 @@ def test_the_ml_starts_at_the_closed_form_of_interleaved_tdoa_and_fdoa_rows():
     assert all(f.starts == 1 and f.converged for f in fits)  # type: ignore[union-attr]
 
 
+def test_row_labels_group_rows_as_numpy_unique_does():
+    from tmakit.core.arrays import row_labels
+
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        key = rng.integers(0, 3, (int(rng.integers(1, 30)), 4)).astype(float)
+        _, label, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+        mine, mine_counts = row_labels(key)
+        assert np.array_equal(mine, label.ravel()) and np.array_equal(mine_counts, counts)
+    assert [a.size for a in row_labels(np.zeros((0, 4)))] == [0, 0]
+
+
 def test_chan_ho_method_and_refusals():
     from tmakit.batch.methods import estimate_with
     from tmakit.reproduce import chan_ho1994

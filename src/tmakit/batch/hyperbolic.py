@@ -12,7 +12,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.arrays import Array
+from ..core.arrays import Array, row_labels
 from ..core.geodesy import enu_to_geodetic, geodetic_to_enu
 from ..core.units import SPEED_OF_LIGHT
 from ..data import MeasurementSet
@@ -34,13 +34,21 @@ def _t(a: Array) -> Array:
     return np.swapaxes(a, -1, -2)
 
 
+def _inverse(a: Array) -> Array:
+    """Invert symmetric matrices ``(..., M, M)``; pseudo-inverses when one is singular."""
+    try:  # (LU: a tenth of the pseudo-inverse's fixed cost on these small matrices)
+        return np.asarray(np.linalg.inv(a), dtype=np.float64)
+    except np.linalg.LinAlgError:
+        return np.asarray(np.linalg.pinv(a, hermitian=True), dtype=np.float64)
+
+
 def _solve_weighted(g: Array, h: Array, cov: Array) -> tuple[Array, Array]:
-    """Give ``(G' W G)^-1 G' W h`` and ``(G' W G)^-1`` with ``W = cov^-1`` (pseudo-inverses).
+    """Give ``(G' W G)^-1 G' W h`` and ``(G' W G)^-1`` with ``W = cov^-1``.
 
     Each of ``g (..., M, K)``, ``h (..., M)``, ``cov (..., M, M)`` may carry leading batch axes.
     """
-    gtw = _t(g) @ np.linalg.pinv(cov, hermitian=True)
-    inv = np.asarray(np.linalg.pinv(gtw @ g, hermitian=True), dtype=np.float64)
+    gtw = _t(g) @ _inverse(cov)
+    inv = _inverse(gtw @ g)
     solution: Array = (inv @ (gtw @ h[..., None]))[..., 0]
     return solution, inv
 
@@ -185,8 +193,8 @@ def snapshot_rows(meas: MeasurementSet, moving: bool, with_fdoa: bool) -> Snapsh
         tdoa, key, fdoa = tdoa[keep], key[keep], match[keep]
         if tdoa.size == 0:
             return None
-    _, label, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    chosen = np.flatnonzero(label.ravel() == int(np.argmax(counts)))
+    label, counts = row_labels(key)
+    chosen = np.flatnonzero(label == int(np.argmax(counts)))
     if chosen.size > MAX_SNAPSHOT_ROWS:  # spread over the snapshot's times
         chosen = chosen[np.linspace(0, chosen.size - 1, MAX_SNAPSHOT_ROWS).astype(int)]
     rows = tdoa[chosen]

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.arrays import Array
+from ..core.arrays import Array, row_labels
 from ..core.frames import wrap_angle
 from ..data import KIND_CODES, MeasurementSet
 from ..measurements import MeasurementModel, model_for
@@ -521,9 +521,9 @@ def shared_reference_groups(rows: NDArray[np.intp], time: Array, ref_state: Arra
     key = time[rows][:, None]
     if ref_state is not None:
         key = np.concatenate([key, ref_state[rows, :3]], axis=1)
-    _, label = np.unique(key, axis=0, return_inverse=True)
-    order = np.argsort(label.ravel(), kind="stable")
-    cuts = np.flatnonzero(np.diff(label.ravel()[order])) + 1
+    label, _ = row_labels(key)
+    order = np.argsort(label, kind="stable")
+    cuts = np.flatnonzero(np.diff(label[order])) + 1
     for g in np.split(order, cuts):
         if g.shape[0] > 1 or singletons:
             yield rows[np.sort(g)]

@@ -25,7 +25,7 @@ SENSORS = np.array([[0.0, 0.0], [8000.0, 1500.0], [-6000.0, 4000.0], [3000.0, 90
 SOURCE = {"x": 15000.0, "y": 25000.0}
 #: The noise levels: 10 log10 sigma^2 from 0 to 70 dB (sigma from 1 m to 3.2 km).
 SIGMA_M = tuple(float(10 ** (db / 20)) for db in range(0, 71, 10))
-RUNS = 1000
+RUNS = 4000
 
 
 def scenario_at(sigma_m: float) -> Scenario:

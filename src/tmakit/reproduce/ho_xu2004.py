@@ -31,7 +31,7 @@ CARRIER_HZ = 1e9
 RATE_RATIO = 0.1
 #: The noise levels: 10 log10 sigma^2 from -30 to 30 dB (sigma in m).
 SIGMA_M = tuple(float(10 ** (db / 20)) for db in range(-30, 31, 10))
-RUNS = 1000
+RUNS = 4000
 
 
 def scenario_at(sigma_m: float, source: dict[str, float] | None = None) -> Scenario:
