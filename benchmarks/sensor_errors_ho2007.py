@@ -2,6 +2,7 @@
 the bound that includes them, the one that ignores them beside it.
 
     python benchmarks/sensor_errors_ho2007.py [--layout ho-xu|chan-ho] [--runs 500] [--seed 1]
+        [--sigma-p 300 ...]
 
 Ho & Xu's five moving sensors (tmakit.reproduce.ho_xu2004), TDOA + FDOA at one time with
 range-difference noise 0.1 m (range-rate 0.01 m/s), sigma_p from 0.03 m to 3 m; or the ten
@@ -50,6 +51,8 @@ def main() -> None:
     parser.add_argument("--layout", choices=("ho-xu", "chan-ho"), default="ho-xu")
     parser.add_argument("--runs", type=int, default=500)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--sigma-p", type=float, nargs="+", default=None,
+                        help="only these of the layout's levels (m; each keeps its seeds)")
     args = parser.parse_args()
     if args.layout == "ho-xu":
         scenario, levels = ho_xu2004.scenario_at(0.1), (0.03, 0.1, 0.3, 1.0, 3.0)
@@ -63,6 +66,8 @@ def main() -> None:
     print("sigma_p (m) | bound loss (pos, vel) | accounting ML / CRLB (pos, vel) | "
           "ignoring ML / CRLB (pos, vel)")
     for k, sigma in enumerate(levels):
+        if args.sigma_p is not None and not any(np.isclose(sigma, args.sigma_p)):
+            continue
         rng = np.random.default_rng(args.seed + 1000 * k)
         bound, known = crlb_with_sensor_errors(scenario.simulate(rng=0, noise=False), motion,
                                                truth, sigma)
