@@ -278,7 +278,7 @@ def test_the_ml_starts_at_the_closed_form_of_interleaved_tdoa_and_fdoa_rows():
     """Ho & Xu's rows alternate TDOA and FDOA: the ML's start is the closed form of the set's
     own rows (not of the rows regrouped by kind), which settles every fit at small noise, and
     a batch of data sets gives each set's own closed form."""
-    from tmakit.batch.hyperbolic import closed_form_many, closed_form_theta
+    from tmakit.batch.hyperbolic import closed_form_many
     from tmakit.batch.ml import MaximumLikelihood
     from tmakit.reproduce import ho_xu2004
 
@@ -287,9 +287,9 @@ def test_the_ml_starts_at_the_closed_form_of_interleaved_tdoa_and_fdoa_rows():
     assert list(sets[0].kind[:2]) == ["tdoa", "fdoa"]
     ys = np.stack([m.value_si for m in sets])
     batch = closed_form_many(sets[0], ys, scenario.motion, scenario.measurement_options)
-    one = [closed_form_theta(m, m.value_si, scenario.motion, scenario.measurement_options)
-           for m in sets]
-    assert batch is not None and np.allclose(batch, np.stack(one), rtol=1e-9, atol=1e-9)
+    one = [closed_form_many(m, m.value_si[None], scenario.motion,
+                            scenario.measurement_options) for m in sets]
+    assert batch is not None and np.allclose(batch, np.concatenate(one), rtol=1e-9, atol=1e-9)
     bound = tk.crlb(scenario)
     assert np.all(np.abs(batch - scenario.theta) < 5 * bound.std)
     fits = MaximumLikelihood().fit_many(sets, scenario.motion)

@@ -24,7 +24,7 @@ from ..observation.rows import correlated_blocks
 from ..results.estimate import EstimateResult, assemble_result
 from .estimator import BatchEstimator, Init, Options
 
-__all__ = ["ChanHo", "HoXu", "Snapshot", "closed_form_theta", "snapshot_rows",
+__all__ = ["ChanHo", "HoXu", "Snapshot", "closed_form_many", "snapshot_rows",
            "two_stage_wls"]
 
 MAX_SNAPSHOT_ROWS = 400  # most rows one solve takes (its weights: a dense square of this size)
@@ -269,18 +269,25 @@ def solve_snapshot(meas: MeasurementSet, values: Array, snap: Snapshot, carrier:
                                             axis=-1), snap.time)
 
 
-def closed_form_theta(meas: MeasurementSet, values: Array, motion: MotionModel,
-                      options: Options = None) -> Array | None:
-    """Give a start of the motion parameters from the set's best closed form, or None."""
-    theta = closed_form_many(meas, values[None], motion, options)
-    return None if theta is None or not np.all(np.isfinite(theta[0])) else theta[0]
-
-
 def closed_form_many(meas: MeasurementSet, ys: Array, motion: MotionModel,
                      options: Options = None) -> Array | None:
-    """Solve the set's best closed form for each data set ``ys (B, n)`` (the set's row order).
+    """Solve the set's best closed form for each of several data sets of the same rows.
 
-    Gives ``(B, p)``, a row of NaN where a solve failed, or None when the set has no snapshot.
+    Parameters
+    ----------
+    meas : MeasurementSet
+        The rows (their values unused).
+    ys : ndarray
+        ``(B, n)`` values, SI, in the set's row order.
+    motion : MotionModel
+    options : mapping, optional
+        Per-kind model options (the FDOA carrier).
+
+    Returns
+    -------
+    ndarray or None
+        ``(B, p)`` motion parameters, a row of NaN where a solve failed; None when the set has
+        no TDOA snapshot.
     """
     moving = not isinstance(motion, Stationary)
     carrier = _known_carrier(meas, options)
