@@ -34,12 +34,12 @@ def run(*args: str):
 
 
 def filter_args(name: str) -> list[str]:
-    # The IMM's and MM-PF's default manoeuvre model (1 m/s^2) is for targets that turn; this
-    # one runs straight at a few m/s, and its bearings alone cannot rule a 1 m/s^2 model out, so the
-    # track stays as wide as that model: a user sets the manoeuvre model to the target.
+    # The IMM's and MM-PF's default turn models (0.375..3 deg/s) are for targets that turn;
+    # this one runs straight at a few m/s, and its bearings alone cannot rule them out, so the
+    # track stays wider: a user sets the manoeuvre models to the target.
     return ["--filter", name] + (["--particles", PARTICLES, "--seed", "3"]
                                  if name in RANDOM_FILTERS else []) + (
-        ["--model-q", "0.02"] if name in ("imm", "mmpf") else [])
+        ["--model-q", "0.02", "--turn-rate", "none"] if name in ("imm", "mmpf") else [])
 
 
 @pytest.fixture(scope="module")

@@ -75,21 +75,24 @@ ComponentOption = Annotated[str, typer.Option(
 ModelQOption = Annotated[str | None, typer.Option(
     "--model-q", help="--filter imm, mmpf: acceleration std (m/s^2) of the manoeuvre models, "
                       "one value per model (comma-separated) beside the --q model; default "
-                      "1.0")]
+                      "none")]
 TurnRateOption = Annotated[str | None, typer.Option(
     "--turn-rate", help="--filter imm, mmpf: turn rates (deg/s, comma-separated; counter-clockwise "
                         "positive, a right turn negative) of coordinated-turn models added "
-                        "after the --model-q ones")]
+                        "after the --model-q ones; default +-0.375,0.75,1.5,3 (a slow ship's "
+                        "turn to an aircraft's standard-rate turn); none for no turn model")]
 PriorTimeOption = Annotated[float | None, typer.Option(
     help="time of the prior (s); default: the first measurement time")]
 NuisanceOption = Annotated[str | None, typer.Option(
     help="known nuisance values with --prior, e.g. carrier=9.4e9 (Hz, dBW)")]
 TransitionOption = Annotated[str | None, typer.Option(
     "--transition", help="--filter imm, mmpf: the Markov matrix per step, rows (from) separated "
-                         "by ';', e.g. 0.99,0.01;0.01,0.99 (the default for two models)")]
+                         "by ';', e.g. 0.99,0.01;0.01,0.99 (default: each model held 500 s on "
+                         "average, whatever the step)")]
 SmoothOption = Annotated[bool, typer.Option(
     "--smooth", help="also give the smoothed track (Rauch-Tung-Striebel for the Gaussian "
-                     "filters and the Gaussian sum; backward simulation for pf)")]
+                     "filters and the Gaussian sum; two-filter for imm; backward simulation for "
+                     "pf and mmpf)")]
 LagOption = Annotated[int | None, typer.Option(
     help="a fixed-lag smoother (implies --smooth): each state given the data up to N "
          "updates after it")]
@@ -126,9 +129,9 @@ def track(
     init_window: Annotated[int | None, typer.Option(
         help="start from a batch estimate over this many first measurement times "
              "(default: the shortest window good enough, see --start-std)")] = None,
-    start_std: Annotated[float, typer.Option(
+    start_std: Annotated[float | None, typer.Option(
         help="start quality: the batch start's position std must be below this fraction "
-             "of the range")] = 0.25,
+             "of the range (default 0.25; 0.1 for imm and mmpf)")] = None,
     dim: Annotated[int | None, typer.Option(
         help="2 or 3 (default: 3 when the data or the file's motion need it)")] = None,
     drift: DriftOption = False, free_exponent: FreeExponentOption = False,
@@ -181,7 +184,7 @@ def track(
 
 def start_keywords(prior: tuple[str | None, str | None, str | None, float | None],
                    bearing: tuple[str | None, float | None, str | None], init_window: int | None,
-                   start_std: float, filter_settings: tuple[Any, ...],
+                   start_std: float | None, filter_settings: tuple[Any, ...],
                    filter_name: str, options: dict[str, Any]) -> dict[str, Any]:
     """Give the keywords of :func:`tmakit.tracking.track` that ``tma track``'s options set."""
     mean, sd, known = parse_prior(prior[0], prior[1], prior[2], init_window)
@@ -556,8 +559,8 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
         if filter_name != "mmpf":
             return {"history": True} if smooth and filter_name == "pf" else {}
     out: dict[str, object] = {} if filter_name == "mmpf" else {"component": component}
-    if smooth and filter_name == "gsf":
-        out["history"] = True  # its sums, for the smoother per component
+    if smooth and filter_name in ("gsf", "imm", "mmpf"):
+        out["history"] = True  # the sums, the models or the clouds, for the smoother
     if model_q is not None:
         try:
             out["model_q"] = [float(v) for v in model_q.split(",")]
@@ -566,10 +569,11 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
                        "commas") from None
     if turn_rate is not None:
         try:
-            out["turn_rates"] = [math.radians(float(v)) for v in turn_rate.split(",")]
+            out["turn_rates"] = [] if turn_rate.strip().lower() == "none" else [
+                math.radians(float(v)) for v in turn_rate.split(",")]
         except ValueError:
             raise fail(f"--turn-rate {turn_rate!r}: expected turn rates (deg/s) separated by "
-                       "commas") from None
+                       "commas, or none") from None
     if transition is not None:
         try:
             out["transition"] = [[float(v) for v in row.split(",")]
@@ -586,12 +590,9 @@ def smoothed_track(tr: Any, lag: int | None) -> Any:
 
     if lag is not None and lag < 0:
         raise fail(f"--lag {lag}: expected a number of updates >= 0")
-    if lag is not None and tr.filter_name == "pf":
-        raise fail("--lag: the particle filter's smoother is fixed-interval (--smooth); the "
-                   "fixed-lag smoother is for the Gaussian filters (ekf, ukf, ckf, gsf)")
-    if tr.filter_name in ("imm", "mmpf"):
-        raise fail(f"--smooth/--lag: there is no smoother for --filter {tr.filter_name} (its "
-                   "estimate mixes several models); smooth ekf, ukf, ckf, gsf or pf")
+    if lag is not None and tr.filter_name in ("pf", "mmpf", "imm"):
+        raise fail(f"--lag: --filter {tr.filter_name}'s smoother is fixed-interval (--smooth); "
+                   "the fixed-lag smoother is for the Gaussian filters (ekf, ukf, ckf, gsf)")
     tr.extra.smoothed = smooth(tr, lag=lag)
     tr.extra.history = None
     return tr

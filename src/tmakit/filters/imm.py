@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -21,18 +22,85 @@ from ..motion.dynamics import CoordinatedTurn, NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .ekf import ExtendedKalmanFilter
-from .gaussian_sum import check_component, component_filter, mixture_moments, update_components
-from .particle import ParticleFilter
+from .gaussian_sum import (
+    check_component,
+    component_filter,
+    mixture_moments,
+    update_components,
+)
+from .particle import ParticleFilter, ParticleStep
 from .track import Recorder, Track
 
-#: Acceleration std of the default manoeuvre model (m/s^2): twice the 0.5 m/s^2 of an
-#: aircraft's or fast vessel's standard-rate turn at 50 m/s (Hoerst & Oispuu 2010, sec. 4),
-#: the setting with no divergence on ``benchmarks/imm_hoerst.py``'s runs.
-MANOEUVRE_Q = 1.0
-#: Acceleration std of the coordinated-turn models (m/s^2).
+#: Turn rates of the default coordinated-turn models (deg/s), each taken to the left and to the
+#: right: a bank in steps of 2 from a large ship's slow turn (0.375 deg/s) to an aircraft's
+#: standard-rate turn (3 deg/s), so that any turn rate between 0.27 and 4.2 deg/s is within a
+#: factor sqrt(2) of a model's (docs/tracking.md, "the model bank").
+TURN_RATES_DEG = (0.375, 0.75, 1.5, 3.0)
+#: Acceleration std of the coordinated-turn models (m/s^2): small, since a turn between two of
+#: the bank's rates is followed by mixing the two models (0.15 measured no better on
+#: hoerst2010, docs/tracking.md).
 TURN_Q = 0.05
-#: Probability per step of switching model (the default two-model Markov matrix).
-SWITCH = 0.01
+#: Mean time (s) the target holds one motion, a straight leg or a turn, before it changes to
+#: another (any other alike): legs and turns of minutes, as a contact is tracked for tens of
+#: minutes. The Markov chain is in continuous time: its matrix for a step follows from the
+#: step's length (:class:`MarkovChain`).
+SOJOURN = 500.0
+#: The batch start's position quality (std over range) for a multiple-model filter: a range
+#: error at the start is, for bearings, explained by a turn model instead of being corrected.
+START_RELATIVE_STD = 0.1
+
+
+class MarkovChain:
+    """The models' switching: a per-step matrix, or a continuous-time chain of one mean stay.
+
+    The continuous chain leaves each model at rate ``1 / sojourn``, to each other model alike;
+    its matrix for a step of ``dt`` s is ``expm(G dt)`` of that rate matrix ``G``:
+    ``p_ii = 1/M + (1 - 1/M) exp(-M dt / ((M - 1) sojourn))``, the rest of the row shared
+    equally. So the chain does not depend on the data rate.
+
+    Parameters
+    ----------
+    count : int
+        Models ``M``.
+    transition : array_like, optional
+        ``(M, M)`` matrix per step (rows sum to 1; row: from, column: to); else the chain.
+    sojourn : float
+        Mean stay (s) in a model.
+
+    Raises
+    ------
+    ValueError
+        A matrix that is not stochastic, or a stay that is not > 0.
+    """
+
+    def __init__(self, count: int, transition: ArrayLike | None,
+                 sojourn: float = SOJOURN) -> None:
+        if not (isinstance(sojourn, (int, float)) and math.isfinite(sojourn) and sojourn > 0):
+            raise ValueError(f"sojourn must be a mean stay > 0 (s); got {sojourn!r}")
+        self.count, self.sojourn = count, float(sojourn)
+        self.fixed: Array | None = None
+        if transition is not None:
+            matrix = np.asarray(transition, dtype=float)
+            if matrix.shape != (count, count) or not np.all(np.isfinite(matrix)) \
+                    or np.any(matrix < 0) \
+                    or not np.allclose(matrix.sum(axis=1), 1.0, atol=1e-9):
+                raise ValueError(f"transition must be a {count}x{count} matrix of "
+                                 f"probabilities >= 0 whose rows sum to 1 ({count} models); "
+                                 f"got {matrix.tolist()}")
+            self.fixed = matrix
+        self._cache: tuple[float, Array] = (math.nan, np.eye(count))
+
+    def matrix(self, dt: float) -> Array:
+        """Give the transition matrix of a step of ``dt`` s (the fixed one if given)."""
+        if self.fixed is not None:
+            return self.fixed
+        m = self.count
+        if dt != self._cache[0] and m > 1:
+            stay = math.exp(-m * max(dt, 0.0) / ((m - 1) * self.sojourn))
+            p = np.full((m, m), (1.0 - stay) / m)
+            np.fill_diagonal(p, stay + (1.0 - stay) / m)
+            self._cache = (dt, p)
+        return self._cache[1]
 
 
 class InteractingMultipleModel(TrackingFilter):
@@ -44,19 +112,27 @@ class InteractingMultipleModel(TrackingFilter):
         The Gaussian prior, given to every model (m, m/s; s).
     component : str, optional
         ``"ekf"``, ``"ukf"`` or ``"ckf"``: the update of each model.
+    iterations : int, optional
+        Linearisations per update of EKF components (> 1: the iterated EKF; default 1, which
+        measured better here than the Gaussian sum's 5, docs/tracking.md).
     model_q : sequence of float, optional
-        Acceleration std (m/s^2, all axes) of the models after the first; the first model is the
-        filter's own ``q``/``dynamics``. Default ``(MANOEUVRE_Q,)``.
+        Acceleration std (m/s^2, all axes) of white-noise manoeuvre models after the first;
+        the first model is the filter's own ``q``/``dynamics``. Default none.
     transition : array_like, optional
         ``(M, M)`` Markov matrix, ``p_ij`` from model ``i`` to ``j`` per predict (rows sum to 1);
-        default ``1 - SWITCH`` on the diagonal, ``SWITCH / (M - 1)`` elsewhere.
+        default the continuous-time chain of ``sojourn`` (:class:`MarkovChain`).
     turn_rates : sequence of float, optional
-        Turn rates (rad/s, counter-clockwise positive; a right turn is negative) of further
-        coordinated-turn models, after the ``model_q`` models (default none).
+        Turn rates (rad/s, counter-clockwise positive; a right turn is negative) of the
+        coordinated-turn models, after the ``model_q`` models. Default :data:`TURN_RATES_DEG`
+        to the left and to the right.
     turn_q : float, optional
         Acceleration std of the turn models (m/s^2).
+    sojourn : float, optional
+        Mean stay (s) in a model, for the default chain (:data:`SOJOURN`).
     probabilities : array_like, optional
         The models' prior probabilities ``(M,)`` (default equal).
+    history : bool, optional
+        Keep each update's models and rows in ``track.extra.history``, for the smoother.
     q, dynamics, options, nuisance
         As for :class:`~tmakit.filters.TrackingFilter` (the first model).
 
@@ -71,26 +147,42 @@ class InteractingMultipleModel(TrackingFilter):
     """
 
     name = "imm"
+    start_relative_std = START_RELATIVE_STD
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
-                 component: str = "ekf", model_q: Sequence[float] = (MANOEUVRE_Q,),
+                 component: str = "ekf", iterations: int = 1,
+                 model_q: Sequence[float] = (),
                  transition: ArrayLike | None = None,
-                 turn_rates: Sequence[float] = (), turn_q: float = TURN_Q,
-                 probabilities: ArrayLike | None = None,
+                 turn_rates: Sequence[float] | None = None, turn_q: float = TURN_Q,
+                 sojourn: float = SOJOURN,
+                 probabilities: ArrayLike | None = None, history: bool = False,
                  q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
                  options: KindOptions | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
         check_component(component)
-        extra, rates, matrix, self._mu0 = markov_chain(model_q, transition, turn_rates, turn_q,
-                                                       probabilities)
+        extra, rates, self.chain, self._mu0 = markov_chain(model_q, transition, turn_rates,
+                                                           turn_q, sojourn, probabilities)
         self.component = component
         self.model_q = tuple(extra)
-        self.transition = matrix
         super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
                          nuisance=nuisance)
         self.models = model_bank(self.dynamics, extra, rates, turn_q)
-        self._unit: ExtendedKalmanFilter = component_filter(self, component, mean, covariance)
+        if component != "ekf" and iterations != 1:
+            raise ValueError(f"iterations apply to EKF components; got {iterations} with "
+                             f"{component!r}")
+        self._unit: ExtendedKalmanFilter = component_filter(
+            self, component, mean, covariance,
+            **({"iterations": iterations} if component == "ekf" else {}))
+        self.iterations = self._unit.iterations
         self.probability_history: list[list[float]] = []
+        #: Each update's models and rows (with ``history=True``), for :func:`imm_smooth`.
+        self.history = ModelHistory(self.models, self._unit, []) if history else None
+        self._switch = self.chain.matrix(0.0)
+
+    @property
+    def transition(self) -> Array:
+        """The Markov matrix per step given, or the chain's for a 1-s step ``(M, M)``."""
+        return self.chain.matrix(1.0)
 
     def _init_state(self, mean: Array, covariance: Array) -> None:
         count = self._mu0.shape[0]
@@ -119,7 +211,7 @@ class InteractingMultipleModel(TrackingFilter):
         return mixture_moments(self._mu, self._m, self._p)[1]
 
     def _predict(self, dt: float) -> None:
-        pij = self.transition
+        pij = self._switch = self.chain.matrix(dt)
         c = self._mu @ pij  # c_j
         mixed_m, mixed_p = np.empty_like(self._m), np.empty_like(self._p)
         for j, model in enumerate(self.models):
@@ -138,18 +230,26 @@ class InteractingMultipleModel(TrackingFilter):
         log_l, nis, dof = update_components(self._unit, group, self._m, self._p, self._mu)
         ok = np.flatnonzero(np.isfinite(log_l))
         if ok.shape[0] == 0:
-            self.probability_history.append(self._mu.tolist())
+            self._record(None)
             return self._skip()
         top = float(np.max(log_l[ok]))
         post = np.zeros(log_l.shape[0])
         post[ok] = self._mu[ok] * np.exp(log_l[ok] - top)
         total = float(post.sum())
         self._mu = post / total
-        self.probability_history.append(self._mu.tolist())
+        self._record(group)
         return UpdateInfo(nis, dof, top + math.log(total))
 
+    def _record(self, group: MeasurementGroup | None) -> None:
+        self.probability_history.append(self._mu.tolist())
+        if self.history is not None:
+            self.history.steps.append(ModelStep(self.time, self._mu.copy(), self._m.copy(),
+                                                self._p.copy(), self._switch, group))
+
     def _track(self, rec: Recorder) -> Track:
-        return model_records(self, super()._track(rec))
+        track = model_records(self, super()._track(rec))
+        track.extra.history = self.history
+        return track
 
 
 class MultipleModelParticleFilter(ParticleFilter):
@@ -162,7 +262,7 @@ class MultipleModelParticleFilter(ParticleFilter):
     ----------
     mean, covariance, time
         The Gaussian prior of the first cloud, as for :class:`ParticleFilter` (m, m/s; s).
-    model_q, transition, turn_rates, turn_q, probabilities
+    model_q, transition, turn_rates, turn_q, sojourn, probabilities
         The models and their Markov chain, as for :class:`InteractingMultipleModel`.
     **kwargs
         As for :class:`ParticleFilter` (``particles``, ``rng``, ``q``, ``dynamics``, ...).
@@ -178,23 +278,34 @@ class MultipleModelParticleFilter(ParticleFilter):
     """
 
     name = "mmpf"
+    start_relative_std = START_RELATIVE_STD
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
-                 model_q: Sequence[float] = (MANOEUVRE_Q,), transition: ArrayLike | None = None,
-                 turn_rates: Sequence[float] = (), turn_q: float = TURN_Q,
+                 model_q: Sequence[float] = (), transition: ArrayLike | None = None,
+                 turn_rates: Sequence[float] | None = None, turn_q: float = TURN_Q,
+                 sojourn: float = SOJOURN,
                  probabilities: ArrayLike | None = None, **kwargs: Any) -> None:
-        extra, rates, self.transition, self._mu0 = markov_chain(model_q, transition, turn_rates,
-                                                                turn_q, probabilities)
+        extra, rates, self.chain, self._mu0 = markov_chain(model_q, transition, turn_rates,
+                                                           turn_q, sojourn, probabilities)
         self.model_q = tuple(extra)
+        self._switch = self.chain.matrix(0.0)
         super().__init__(mean, covariance, time, **kwargs)
         self.models = model_bank(self.dynamics, extra, rates, turn_q)
         self.probability_history: list[list[float]] = []
+
+    @property
+    def transition(self) -> Array:
+        """The Markov matrix per step given, or the chain's for a 1-s step ``(M, M)``."""
+        return self.chain.matrix(1.0)
 
     def _init_state(self, mean: Array, covariance: Array) -> None:
         super()._init_state(mean, covariance)
         self._label: NDArray[np.int64] = self.rng.choice(self._mu0.shape[0],
                                                          size=self.n_particles, p=self._mu0)
         self._mu = self._mu0.copy()
+        if self.history:
+            self.history[-1] = LabelledStep(**vars(self.history[-1]), labels=self._label.copy(),
+                                            transition=self._switch)
 
     @property
     def labels(self) -> NDArray[np.int64]:
@@ -208,7 +319,8 @@ class MultipleModelParticleFilter(ParticleFilter):
                            minlength=len(self.models)).astype(float)
 
     def _predict(self, dt: float) -> None:
-        cumulative = np.cumsum(self.transition, axis=1)
+        self._switch = self.chain.matrix(dt)
+        cumulative = np.cumsum(self._switch, axis=1)
         u = self.rng.random(self.n_particles)
         self._label = np.minimum(np.sum(u[:, None] > cumulative[self._label], axis=1),
                                  len(self.models) - 1)
@@ -225,48 +337,75 @@ class MultipleModelParticleFilter(ParticleFilter):
         self._label = self._label[idx]
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
-        before = self.resamples
+        before, labels = self.resamples, self._label.copy()
+        kept = len(self.history) if self.history is not None else 0
         info = super()._update(group)
         if self.resamples == before:
             self._mu = self.probabilities
         self.probability_history.append(self._mu.tolist())
+        if self.history is not None and len(self.history) > kept:
+            # the labels of the weighted cloud: those before any resampling
+            self.history[-1] = LabelledStep(**vars(self.history[-1]), labels=labels,
+                                            transition=self._switch)
         return info
 
     def _track(self, rec: Recorder) -> Track:
         return model_records(self, super()._track(rec))
 
 
+@dataclass(frozen=True)
+class ModelStep:
+    """The IMM's models after one update: what its smoother needs."""
+
+    time: float  # (s)
+    probabilities: Array  # (M,)
+    means: Array  # (M, n) (m, m/s)
+    covariances: Array  # (M, n, n)
+    transition: Array  # (M, M): the Markov matrix of the predict into this update
+    group: MeasurementGroup | None  # the update's rows (for the backward filter)
+
+
+@dataclass
+class ModelHistory:
+    """What the IMM smoother needs: the models, the update's arithmetic, each update's models."""
+
+    models: list[NearlyConstantVelocity]
+    unit: ExtendedKalmanFilter
+    steps: list[ModelStep]
+
+
+@dataclass(frozen=True)
+class LabelledStep(ParticleStep):
+    """A multiple-model particle filter's weighted cloud with each particle's model."""
+
+    labels: NDArray[np.int64] | None = None  # (N,)
+    transition: Array | None = None  # (M, M): the Markov matrix of the predict into this step
+
+
 def markov_chain(model_q: Sequence[float], transition: ArrayLike | None,
-                 turn_rates: Sequence[float], turn_q: float, probabilities: ArrayLike | None
-                 ) -> tuple[list[float], list[float], Array, Array]:
-    """Check the model options; give the extra q's, turn rates, Markov matrix and prior."""
+                 turn_rates: Sequence[float] | None, turn_q: float, sojourn: float,
+                 probabilities: ArrayLike | None
+                 ) -> tuple[list[float], list[float], MarkovChain, Array]:
+    """Check the model options; give the extra q's, turn rates, Markov chain and prior."""
     extra = [float(v) for v in np.atleast_1d(np.asarray(model_q, dtype=float))]
     if not all(math.isfinite(v) and v >= 0 for v in extra):
         raise ValueError(f"model_q must be accelerations >= 0 (m/s^2); got {extra}")
+    if turn_rates is None:
+        turn_rates = [math.radians(s * v) for v in TURN_RATES_DEG for s in (1.0, -1.0)]
     rates = [float(v) for v in np.atleast_1d(np.asarray(turn_rates, dtype=float))]
     if not all(math.isfinite(v) and v != 0 for v in rates):
         raise ValueError(f"turn_rates must be finite and != 0 (rad/s); got {rates}")
     if not (math.isfinite(turn_q) and turn_q >= 0):
         raise ValueError(f"turn_q must be an acceleration >= 0 (m/s^2); got {turn_q}")
     count = 1 + len(extra) + len(rates)
-    if transition is None:
-        off = SWITCH / max(count - 1, 1)
-        matrix = np.full((count, count), off)
-        np.fill_diagonal(matrix, 1.0 - SWITCH if count > 1 else 1.0)
-    else:
-        matrix = np.asarray(transition, dtype=float)
-    if matrix.shape != (count, count) or not np.all(np.isfinite(matrix)) \
-            or np.any(matrix < 0) or not np.allclose(matrix.sum(axis=1), 1.0, atol=1e-9):
-        raise ValueError(f"transition must be a {count}x{count} matrix of probabilities "
-                         f">= 0 whose rows sum to 1 ({count} models); got "
-                         f"{matrix.tolist()}")
+    chain = MarkovChain(count, transition, sojourn)
     mu = (np.full(count, 1.0 / count) if probabilities is None
           else np.asarray(probabilities, dtype=float).reshape(-1))
     if mu.shape != (count,) or not np.all(np.isfinite(mu)) or np.any(mu < 0) \
             or not mu.sum() > 0:
         raise ValueError(f"probabilities must be {count} values >= 0, not all 0; got "
                          f"{mu.tolist()}")
-    return extra, rates, matrix, mu / mu.sum()
+    return extra, rates, chain, mu / mu.sum()
 
 
 def model_bank(dynamics: NearlyConstantVelocity, extra: Sequence[float],
@@ -289,10 +428,142 @@ def model_records(f: InteractingMultipleModel | MultipleModelParticleFilter, tra
     track.extra.models = [{"q": [float(v) for v in m.axes()[0]],
                            "q_density": [float(v) for v in m.axes()[1]],
                            "turn_rate": float(getattr(m, "turn_rate", 0.0)),
-                           "prior": float(p)} for m, p in zip(f.models, f._mu0, strict=True)]
+                           "prior": float(p),
+                           "sojourn": None if f.chain.fixed is not None
+                           else f.chain.sojourn} for m, p in zip(f.models, f._mu0, strict=True)]
     track.extra.transition = f.transition.tolist()
     return track
 
 
-__all__ = ["MANOEUVRE_Q", "SWITCH", "TURN_Q", "InteractingMultipleModel",
-           "MultipleModelParticleFilter"]
+def models_of(track: Track) -> list[NearlyConstantVelocity]:
+    """Rebuild a multiple-model track's models from ``track.extra.models``."""
+    dim = len(track.state_names) // 2
+    return [CoordinatedTurn(dim, tuple(m["q"]), tuple(m["q_density"]),
+                            turn_rate=float(m["turn_rate"])) if m["turn_rate"]
+            else NearlyConstantVelocity(dim, tuple(m["q"]), tuple(m["q_density"]))
+            for m in track.extra.models or ()]
+
+
+#: Factor on the forward filter's last covariance that starts the backward filter of the IMM
+#: smoother: ten times the std, so that the backward filter carries (almost) only the data.
+BACKWARD_INFLATE = 100.0
+
+
+def _stationary(transition: Array) -> Array:
+    """Give a Markov matrix's stationary probabilities (from equal ones, 2^20 steps on)."""
+    start = np.full(transition.shape[0], 1.0 / transition.shape[0])
+    pi = start @ np.linalg.matrix_power(transition, 1 << 20)
+    return pi / pi.sum() if np.all(np.isfinite(pi)) and pi.sum() > 0 else start
+
+
+def imm_smooth(track: Track) -> tuple[Array, Array, Array]:
+    """Smooth an IMM track: a backward IMM filter fused with the forward one at every update.
+
+    The backward filter runs the same models and component updates from the last update to
+    the first, started from the forward filter's last estimate with its covariance times
+    :data:`BACKWARD_INFLATE` (a weak prior that only linearises). From update ``k+1`` to ``k``
+    each model ``j`` moves back by its own dynamics, ``x_k = Phi_j^-1 (x_{k+1} - w_j)``, and
+    the models are mixed by the reverse chain ``P(i at k | j at k+1) = p_ij pi_i / pi_j``
+    (``pi`` the chain's stationary probabilities). At ``k`` each model's backward prediction
+    (the data after ``k``) and forward estimate (the data up to ``k``) are fused as two
+    independent Gaussians, ``K = P_f (P_f + P_b)^-1``, ``x = x_f + K (x_b - x_f)``,
+    ``P = P_f - K P_f`` (Fraser & Potter 1969), weighted by ``mu_f^i mu_b^i / pi_i`` times the
+    two estimates' agreement ``N(x_b^i; x_f^i, P_f^i + P_b^i)``, and the mixture's moments
+    given: the two-filter IMM smoother of Helmick, Blair & Hoffman (1995).
+
+    Parameters
+    ----------
+    track : Track
+        A track of :class:`InteractingMultipleModel` (its ``extra.history``).
+
+    Returns
+    -------
+    means, covariances, probabilities : ndarray
+        The smoothed ``(K, n)``, ``(K, n, n)`` and the models' ``(K, M)``.
+
+    Raises
+    ------
+    ValueError
+        The model history does not match the track's rows.
+
+    References
+    ----------
+    Helmick, Blair & Hoffman (1995), "Fixed-interval smoothing for Markovian switching
+    systems", IEEE Trans. Inf. Theory 41(6); Fraser & Potter (1969), IEEE Trans. Autom.
+    Control 14(4).
+    """
+    history: ModelHistory = track.extra.history
+    steps = list(history.steps)
+    if len(steps) == len(track) - 1:  # the start's row: fused, never updated
+        steps.insert(0, ModelStep(float(track.times[0]), np.asarray(
+            (track.extra.model_probabilities or [[1.0]])[0]), track.states[:1],
+            track.covariances[:1], np.eye(len(history.models)), None))
+    if len(steps) != len(track) or not np.allclose([s.time for s in steps], track.times):
+        raise ValueError("the IMM filter's model states do not match the track's rows; it "
+                         "cannot be smoothed")
+    models, count = history.models, len(history.models)
+    out_mu = np.array([s.probabilities for s in steps])
+    out_m, out_p = track.states.copy(), track.covariances.copy()
+    mu = _stationary(steps[-1].transition)
+    means = np.repeat(track.states[-1:], count, axis=0)
+    covs = np.repeat(track.covariances[-1:] * BACKWARD_INFLATE, count, axis=0)
+    mu = _backward_update(history.unit, steps[-1].group, means, covs, mu)
+    for k in range(len(steps) - 2, -1, -1):
+        dt = float(steps[k + 1].time - steps[k].time)
+        pij = steps[k + 1].transition
+        pi = _stationary(pij)
+        back = np.array([m.transition(-dt) for m in models])
+        moved_m = np.einsum("jab,jb->ja", back, means)
+        moved_p = back @ (covs + np.array([m.noise(dt) for m in models])) @ np.swapaxes(
+            back, -1, -2)
+        reverse = pij * pi[:, None] / np.maximum(pi @ pij, 1e-300)[None, :]  # (i, j)
+        joint = reverse * mu[None, :]
+        c = joint.sum(axis=1)
+        weights = np.divide(joint, c[:, None], out=np.full_like(joint, 1.0 / count),
+                            where=c[:, None] > 0)
+        mu = c / c.sum()
+        for i in range(count):
+            means[i], covs[i] = mixture_moments(weights[i], moved_m, moved_p)
+        out_m[k], out_p[k], out_mu[k] = _fuse(steps[k], means, covs, mu, pi)
+        if steps[k].group is not None:
+            mu = _backward_update(history.unit, steps[k].group, means, covs, mu)
+    return out_m, out_p, out_mu
+
+
+def _fuse(forward: ModelStep, means: Array, covs: Array, mu: Array, pi: Array
+          ) -> tuple[Array, Array, Array]:
+    """Fuse each model's forward and backward Gaussians; weigh them by both and their overlap."""
+    total = forward.covariances + covs
+    gain = np.swapaxes(np.linalg.solve(total, forward.covariances), -1, -2)
+    d = means - forward.means
+    fused_m = forward.means + np.einsum("iab,ib->ia", gain, d)
+    fused_p = forward.covariances - gain @ forward.covariances
+    chol = np.linalg.cholesky(symmetrise(total))
+    white = np.linalg.solve(chol, d[..., None])[..., 0]
+    with np.errstate(divide="ignore"):
+        log_w = (np.log(forward.probabilities) + np.log(mu) - np.log(pi)
+                 - 0.5 * np.einsum("ia,ia->i", white, white)
+                 - np.log(np.diagonal(chol, axis1=-2, axis2=-1)).sum(axis=-1))
+    top = np.max(log_w)
+    w = np.exp(log_w - top) if np.isfinite(top) else forward.probabilities.copy()
+    w = w / w.sum()
+    mean, cov = mixture_moments(w, fused_m, fused_p)
+    return mean, cov, w
+
+
+def _backward_update(unit: ExtendedKalmanFilter, group: MeasurementGroup | None, means: Array,
+                     covs: Array, mu: Array) -> Array:
+    """Update the backward filter's models in place; give their probabilities."""
+    if group is None:
+        return mu
+    log_l, _, _ = update_components(unit, group, means, covs, mu)
+    ok = np.isfinite(log_l)
+    if not ok.any():
+        return mu
+    post = np.where(ok, mu * np.exp(np.where(ok, log_l, 0.0) - np.max(log_l[ok])), 0.0)
+    return post / post.sum() if post.sum() > 0 else mu
+
+
+__all__ = ["BACKWARD_INFLATE", "SOJOURN", "START_RELATIVE_STD", "TURN_Q", "TURN_RATES_DEG",
+           "InteractingMultipleModel", "MarkovChain", "ModelHistory", "ModelStep",
+           "MultipleModelParticleFilter", "imm_smooth", "models_of"]

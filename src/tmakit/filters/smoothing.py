@@ -3,14 +3,16 @@
 :func:`smooth` runs the Rauch-Tung-Striebel smoother on a Gaussian track (on a Gaussian sum that
 kept its history, each component along its lineage, :mod:`tmakit.filters.sum_smoothing`; on
 one that did not, on its moments), or with ``lag=N`` the fixed-lag smoother; on a particle track
-that kept its clouds,
-forward filtering-backward simulation with the filter's own move as transition density.
+that kept its clouds, forward filtering-backward simulation with the filter's own move as
+transition density (the model index part of the state for the multiple-model particle filter);
+on an IMM track, a backward IMM filter fused with the forward one
+(:func:`tmakit.filters.imm.imm_smooth`).
 
 References
 ----------
 Rauch, Tung & Striebel (1965); Särkkä (2013), *Bayesian Filtering and Smoothing*, Theorem 8.2
 and §9; Godsill, Doucet & West (2004), "Monte Carlo smoothing for nonlinear time series", JASA
-99(465), Algorithm 1.
+99(465), Algorithm 1; Helmick, Blair & Hoffman (1995), IEEE Trans. Inf. Theory 41(6).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import numpy as np
 from ..core.arrays import Array
 from ..motion.dynamics import NearlyConstantVelocity
 from .gaussian_sum import SumStep
+from .imm import ModelHistory, imm_smooth, models_of
 from .sum_smoothing import smooth_sum
 from .track import Track
 
@@ -68,17 +71,25 @@ def _history_of(track: Track) -> list | None:
     if len(history) == len(track) + 1:  # the cloud at the prior's time has no row
         history = history[1:]
     if len(history) != len(track) or not np.allclose([h.time for h in history], track.times):
-        raise ValueError("the filter's kept history (particle clouds or Gaussian sums) does not "
-                         "match the track's rows (an update was skipped); it cannot be smoothed")
+        raise ValueError("the particle filter's clouds do not match the track's rows (an "
+                         "update was skipped); it cannot be smoothed")
     return list(history)
 
 
-def _backward_simulation(history: list, dynamics: NearlyConstantVelocity, trajectories: int,
-                         rng: np.random.Generator) -> tuple[Array, Array]:
-    """Draw paths backwards through the clouds (FFBSi); give their means and covariances."""
+def _backward_simulation(history: list, models: list[NearlyConstantVelocity],
+                         trajectories: int, rng: np.random.Generator
+                         ) -> tuple[Array, Array, Array | None]:
+    """Draw paths backwards through the clouds (FFBSi); give their means and covariances.
+
+    With a multiple-model filter's clouds (each particle's model in ``labels``), the model is
+    part of the state: the transition density of a particle ``(x, i)`` to a path's ``(x', j)``
+    is ``p_ij N(x'; Phi_j x, Q_j)``, and the paths' model shares are given too.
+    """
     k_all = len(history)
     n = history[0].particles.shape[0]
     paths = np.empty((k_all, trajectories, n))
+    labelled = getattr(history[-1], "labels", None) is not None
+    path_models = np.zeros((k_all, trajectories), dtype=np.int64)
 
     def draw(logw: Array) -> Array:
         p = np.exp(logw - logw.max(axis=-1, keepdims=True))
@@ -88,47 +99,75 @@ def _backward_simulation(history: list, dynamics: NearlyConstantVelocity, trajec
 
     last = history[-1]
     with np.errstate(divide="ignore"):
-        idx = draw(np.log(last.weights)[None, :])[0] if trajectories == 1 else draw(
-            np.broadcast_to(np.log(last.weights), (trajectories, last.weights.size)))
+        idx = draw(np.broadcast_to(np.log(last.weights), (trajectories, last.weights.size)))
     paths[-1] = last.particles[:, idx].T
+    if labelled:
+        path_models[-1] = last.labels[idx]
     for k in range(k_all - 2, -1, -1):
         step = history[k]
         dt = float(history[k + 1].time - step.time)
-        phi = dynamics.transition(dt)
         x = step.particles
         if step.centre is not None:
             x = step.shrink * x + ((1.0 - step.shrink) * step.centre)[:, None]
-        cov = dynamics.noise(dt) + (0.0 if step.jitter is None
-                                    else phi @ step.jitter @ phi.T)
-        cov = 0.5 * (cov + cov.T) + 1e-6 * np.eye(n)  # a deterministic move stays drawable
-        chol = np.linalg.cholesky(cov)
-        a = np.linalg.solve(chol, phi @ x).T           # (N, n) whitened predicted particles
-        b = np.linalg.solve(chol, paths[k + 1].T).T    # (M, n) whitened path states
-        d2 = (b * b).sum(axis=1)[:, None] + (a * a).sum(axis=1)[None, :] - 2.0 * b @ a.T
-        with np.errstate(divide="ignore"):
-            logw = np.log(step.weights)[None, :] - 0.5 * d2
-        paths[k] = x[:, draw(logw)].T if step.centre is None else \
-            step.particles[:, draw(logw)].T
+        logw = np.empty((trajectories, x.shape[1]))
+        for j in np.unique(path_models[k + 1]):
+            to_j = path_models[k + 1] == j
+            phi = models[j].transition(dt)
+            cov = models[j].noise(dt) + (0.0 if step.jitter is None
+                                         else phi @ step.jitter @ phi.T)
+            cov = 0.5 * (cov + cov.T) + 1e-6 * np.eye(n)  # a deterministic move stays drawable
+            chol = np.linalg.cholesky(cov)
+            a = np.linalg.solve(chol, phi @ x).T           # (N, n) whitened predicted particles
+            b = np.linalg.solve(chol, paths[k + 1, to_j].T).T  # (M_j, n) whitened path states
+            d2 = (b * b).sum(axis=1)[:, None] + (a * a).sum(axis=1)[None, :] - 2.0 * b @ a.T
+            with np.errstate(divide="ignore"):
+                prior = np.log(step.weights) + (np.log(history[k + 1].transition[step.labels, j])
+                                                if labelled else 0.0)
+            logw[to_j] = prior[None, :] - 0.5 * d2
+        pick = draw(logw)
+        paths[k] = x[:, pick].T if step.centre is None else step.particles[:, pick].T
+        if labelled:
+            path_models[k] = step.labels[pick]
     means = paths.mean(axis=1)
     dev = paths - means[:, None, :]
     covs = np.einsum("kmi,kmj->kij", dev, dev) / max(trajectories - 1, 1)
-    return means, covs
+    shares = None if not labelled else np.stack(
+        [np.bincount(row, minlength=len(models)) / trajectories for row in path_models])
+    return means, covs, shares
+
+
+def _rts(track: Track, dynamics: NearlyConstantVelocity | None, lag: int | None
+         ) -> tuple[Array, Array, str]:
+    """Run the RTS smoother on a Gaussian track (fixed-lag with ``lag``)."""
+    dyn = _dynamics_of(track) if dynamics is None else dynamics
+    times, states, covs, n = track.times, track.states, track.covariances, len(track)
+    if lag is None:
+        xs, ps = _backward(times, states, covs, dyn, 0, n - 1)
+        return xs, ps, "rts"
+    xs, ps = np.empty_like(states), np.empty_like(covs)
+    for k in range(n):
+        x, p = _backward(times, states, covs, dyn, k, min(k + int(lag), n - 1))
+        xs[k], ps[k] = x[0], p[0]
+    return xs, ps, f"fixed-lag {int(lag)}"
 
 
 def smooth(track: Track, *, lag: int | None = None,
            dynamics: NearlyConstantVelocity | None = None, trajectories: int = 200,
            rng: np.random.Generator | int | None = 0) -> Track:
-    """Smooth a Gaussian track (RTS; fixed-lag with ``lag``).
+    """Smooth a track: RTS (fixed-lag with ``lag``), the IMM's, or backward simulation.
 
     Parameters
     ----------
     track : Track
         A track of a Gaussian filter, of a Gaussian sum (that kept its history: smoothed per
-        component; otherwise on its moments) or of a particle filter that kept its clouds.
+        component; otherwise on its moments), of the IMM filter or of a particle filter (``pf``,
+        ``mmpf``) that kept its history.
     lag : int, optional
-        Fixed lag N >= 0 (updates); default the whole track (fixed-interval RTS).
+        Fixed lag N >= 0 (updates), for the Gaussian filters; default the whole track
+        (fixed-interval).
     dynamics : NearlyConstantVelocity, optional
-        The filter's dynamics; default from the track's ``extra`` (``q``, ``q_density``).
+        The filter's dynamics; default from the track's ``extra`` (``q``, ``q_density``; a
+        multiple-model track's ``models``).
     trajectories : int, optional
         Paths drawn by the particle smoother (>= 2).
     rng : numpy.random.Generator or int, optional
@@ -138,49 +177,57 @@ def smooth(track: Track, *, lag: int | None = None,
     -------
     Track
         The smoothed states and covariances (the rest as filtered); ``extra.options["smoother"]``
-        says which; for a Gaussian sum's history, ``extra.history`` holds the smoothed sum per
-        row (:class:`~tmakit.filters.gaussian_sum.SumStep`).
+        says which; a multiple-model track's smoothed model probabilities in
+        ``extra.model_probabilities``; for a Gaussian sum's history, ``extra.history`` holds the
+        smoothed sum per row (:class:`~tmakit.filters.gaussian_sum.SumStep`).
 
     Raises
     ------
     ValueError
-        A negative lag, a lag for a particle track, clouds that do not match the rows, or an IMM
-        filter's track.
+        A negative lag, a lag for a particle or IMM track, clouds or model states that do not
+        match the rows, or a multiple-model particle track without its clouds.
+
+    References
+    ----------
+    The IMM's: Helmick, Blair & Hoffman (1995), :func:`~tmakit.filters.imm.imm_smooth`.
     """
     if lag is not None and (isinstance(lag, bool) or int(lag) != lag or lag < 0):
         raise ValueError(f"lag must be a whole number of updates >= 0; got {lag!r}")
-    if track.extra.model_probabilities is not None:
-        raise ValueError("no smoother for the IMM filter's track: its combined estimate is "
-                         "not one Gaussian model's (the IMM smoother is not built)")
-    dyn = _dynamics_of(track) if dynamics is None else dynamics
-    times, states, covs = track.times, track.states, track.covariances
-    n = len(track)
-    if n == 0:
+    if len(track) == 0:
         return track
-    history = _history_of(track)
+    multiple = track.extra.model_probabilities is not None
+    probabilities = None
+    imm = isinstance(track.extra.history, ModelHistory)
+    history = None if imm else _history_of(track)
     sums = None
-    if history is not None and isinstance(history[0], SumStep):
-        xs, ps, sums = smooth_sum(history, dyn, lag)
+    summed = history is not None and isinstance(history[0], SumStep)
+    if lag is not None and (imm or (history is not None and not summed)):
+        raise ValueError(f"the {'IMM' if imm else 'particle'} smoother is fixed-interval; lag "
+                         "applies to the Gaussian filters (ekf, ukf, ckf, gsf)")
+    if summed:
+        xs, ps, sums = smooth_sum(history, _dynamics_of(track) if dynamics is None
+                                  else dynamics, lag)
         label = "gaussian-sum " + ("rts" if lag is None else f"fixed-lag {int(lag)}")
+    elif imm:
+        xs, ps, probabilities = imm_smooth(track)
+        label = "imm two-filter"
     elif history is not None:
-        if lag is not None:
-            raise ValueError("the particle smoother is fixed-interval; lag applies to the "
-                             "Gaussian filters")
         if trajectories < 2:
             raise ValueError(f"trajectories must be >= 2; got {trajectories}")
-        xs, ps = _backward_simulation(history, dyn, int(trajectories),
-                                      np.random.default_rng(rng))
+        models = models_of(track) if multiple else [
+            _dynamics_of(track) if dynamics is None else dynamics]
+        xs, ps, probabilities = _backward_simulation(history, models, int(trajectories),
+                                                     np.random.default_rng(rng))
         label = f"ffbsi {int(trajectories)}"
-    elif lag is None:
-        xs, ps = _backward(times, states, covs, dyn, 0, n - 1)
-        label = "rts"
+    elif multiple:
+        raise ValueError(f"the {track.filter_name} filter's track kept no history: run it "
+                         "with history=True (settings={'history': True}) to smooth it")
     else:
-        xs, ps = np.empty_like(states), np.empty_like(covs)
-        for k in range(n):
-            x, p = _backward(times, states, covs, dyn, k, min(k + int(lag), n - 1))
-            xs[k], ps[k] = x[0], p[0]
-        label = f"fixed-lag {int(lag)}"
+        xs, ps, label = _rts(track, dynamics, lag)
     extra = replace(track.extra, smoothed=None, history=sums,
-                    options={**track.extra.options, "smoother": label})
-    return Track(track.filter_name, track.state_names, times.copy(), xs, ps, track.nis.copy(),
+                    options={**track.extra.options, "smoother": label},
+                    model_probabilities=None if probabilities is None
+                    else probabilities.tolist())
+    return Track(track.filter_name, track.state_names, track.times.copy(), xs, ps,
+                 track.nis.copy(),
                  track.dof.copy(), track.log_likelihood.copy(), extra)

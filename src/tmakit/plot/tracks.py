@@ -206,6 +206,12 @@ def _model_probabilities(ax: Any, tr: Track, meas: MeasurementSet, colours: list
         what = f", turn {np.degrees(turn):+.3g} deg/s" if turn else ""
         ax.plot(t, mu[:, j], "-", color=colours[j % len(colours)], lw=1.2,
                 label=f"model {j + 1} (q = {max(q):g} m/s^2{what})")
+    smoothed = getattr(tr.extra.smoothed, "extra", None)
+    if smoothed is not None and smoothed.model_probabilities is not None:
+        mu_s = np.asarray(smoothed.model_probabilities, dtype=float)
+        for j in range(mu_s.shape[1]):
+            ax.plot(t, mu_s[:, j], "--", color=colours[j % len(colours)], lw=0.9,
+                    label="smoothed (dashed)" if j == 0 else None)
     ax.set_ylim(-0.02, 1.02)
     ax.set_ylabel("probability")
     ax.set_xlabel(label)

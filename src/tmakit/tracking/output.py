@@ -45,8 +45,9 @@ def track_dict(tr: Track) -> dict[str, object]:
     dict
         :meth:`Track.as_dict` with ``start``, ``q``, ``q_density``, the Gaussian sum's
         ``components``, an IMM filter's ``model_probabilities``, ``models`` and ``transition``,
-        and a smoothed track's ``smoothed``, ``smoothed_std``, ``smoothed_covariance`` and
-        ``smoother``; NaN and infinities as ``None``.
+        and a smoothed track's ``smoothed``, ``smoothed_std``, ``smoothed_covariance``,
+        ``smoother`` (and a multiple-model track's ``smoothed_model_probabilities``); NaN and
+        infinities as ``None``.
     """
     data = tr.as_dict()
     data["start"] = tr.extra.start
@@ -64,6 +65,8 @@ def track_dict(tr: Track) -> dict[str, object]:
         data["smoothed_std"] = sm.std.tolist()
         data["smoothed_covariance"] = sm.covariances.tolist()
         data["smoother"] = sm.extra.options.get("smoother")
+        if sm.extra.model_probabilities is not None:
+            data["smoothed_model_probabilities"] = sm.extra.model_probabilities
     return _clean(data)  # type: ignore[return-value]
 
 

@@ -32,13 +32,14 @@ def _initiator(initiator: Initiator | None,
                prior: Mapping[str, float] | ArrayLike | None,
                prior_std: Mapping[str, float] | ArrayLike | None, prior_time: float | None,
                nuisance: Mapping[str, float] | None, init_window: int | None,
-               max_relative_std: float, confirm: bool, bearing_prior: BearingPrior | None,
+               max_relative_std: float | None, confirm: bool,
+               bearing_prior: BearingPrior | None,
                tracker: str) -> Initiator:
     """Give the initiator given, or the one the start keywords of :func:`track` describe."""
     if initiator is not None or bearing_prior is not None:
         if any(v is not None for v in (prior, prior_std, prior_time, init_window)) \
                 or (nuisance and initiator is not None) \
-                or max_relative_std != DEFAULT_MAX_RELATIVE_STD or not confirm \
+                or max_relative_std is not None or not confirm \
                 or (initiator is not None and bearing_prior is not None):
             raise TrackingError("initiator: give the start as an initiator, as a "
                                 "bearing_prior or by the start keywords (prior, prior_std, "
@@ -58,6 +59,9 @@ def _initiator(initiator: Initiator | None,
     if nuisance:
         raise TrackingError("nuisance values are taken from the batch estimate; give them "
                             "only with a prior", "nuisance")
+    if max_relative_std is None:  # a multiple-model filter asks for a better start
+        max_relative_std = getattr(filter_class(tracker), "start_relative_std",
+                                   DEFAULT_MAX_RELATIVE_STD)
     return BatchInitiator(init_window, max_relative_std, confirm)
 
 
@@ -66,7 +70,7 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
           prior: Mapping[str, float] | ArrayLike | None = None,
           prior_std: Mapping[str, float] | ArrayLike | None = None,
           prior_time: float | None = None, init_window: int | None = None,
-          max_relative_std: float = DEFAULT_MAX_RELATIVE_STD, confirm: bool = True,
+          max_relative_std: float | None = None, confirm: bool = True,
           rng: np.random.Generator | int | None = None, dim: int | None = None,
           options: Mapping[str, Mapping[str, object]] | None = None,
           nuisance: Mapping[str, float] | None = None, *,
@@ -92,7 +96,7 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     prior_time : float, optional
         The prior's time (s; default the first measurement time).
     init_window, max_relative_std, confirm
-        Short form of ``initiator=BatchInitiator(init_window, max_relative_std, confirm)``.
+        As ``BatchInitiator(init_window, max_relative_std, confirm)``; std 0.25 (imm, mmpf 0.1).
     rng : numpy.random.Generator or int, optional
         Generator or seed, for the filters that draw random numbers.
     dim : int, optional
