@@ -71,8 +71,8 @@ def _history_of(track: Track) -> list | None:
     if len(history) == len(track) + 1:  # the cloud at the prior's time has no row
         history = history[1:]
     if len(history) != len(track) or not np.allclose([h.time for h in history], track.times):
-        raise ValueError("the particle filter's clouds do not match the track's rows (an "
-                         "update was skipped); it cannot be smoothed")
+        raise ValueError("the filter's kept history (particle clouds or Gaussian sums) does not "
+                         "match the track's rows (an update was skipped); it cannot be smoothed")
     return list(history)
 
 
@@ -204,7 +204,7 @@ def smooth(track: Track, *, lag: int | None = None,
     if lag is not None and (imm or (history is not None and not summed)):
         raise ValueError(f"the {'IMM' if imm else 'particle'} smoother is fixed-interval; lag "
                          "applies to the Gaussian filters (ekf, ukf, ckf, gsf)")
-    if summed:
+    if summed and history is not None:
         xs, ps, sums = smooth_sum(history, _dynamics_of(track) if dynamics is None
                                   else dynamics, lag)
         label = "gaussian-sum " + ("rts" if lag is None else f"fixed-lag {int(lag)}")
