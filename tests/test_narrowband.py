@@ -74,7 +74,7 @@ def test_one_straight_leg_of_frequencies_is_unobservable_in_words():
                       options=bench.OPTIONS)
     assert res.status == "unobservable"
     assert np.isnan(res.std[:4]).all() or not np.isfinite(res.std[:4]).any()
-    assert "rotation of the track seen from sensor own about it" in str(res)
+    assert "rotation of the track seen from sensor own about it" in res.summary()
     assert res.nuisance["carrier"][0] == pytest.approx(150.0, abs=5 * res.nuisance["carrier"][1])
 
 
