@@ -10,8 +10,10 @@ component is observable and the position's largest 1-sigma semi-axis is below
 ``max_relative_std`` times the range (``docs/tracking.md``): :func:`search_window` doubles the
 window from ``min_window`` until it qualifies, then bisects down to the shortest that does (with
 bearings a fit may start from a neighbouring window's estimate where that decides the window
-clearly; the chosen window is fitted without a guess).  The records' :meth:`as_dict` is the
-``start`` of ``tma track --json``.
+clearly; the chosen window is fitted without a guess).  The filter starts from the window's
+estimate with its covariance widened to the profile likelihood (:func:`likelihood_covariance`:
+a short bearings-only window's linearised covariance is overconfident in range).  The records'
+:meth:`as_dict` is the ``start`` of ``tma track --json``.
 """
 
 from __future__ import annotations
@@ -33,16 +35,17 @@ from ..data import MeasurementSet
 from ..filters import BearingPrior, FirstBearing, Track, first_bearing
 from ..measurements import model_for
 from ..motion import ConstantVelocity
-from ..observation import ObservationModel, time_blocks
+from ..observation import NoiseModel, ObservationModel, time_blocks
 from ..results.estimate import EstimateResult
 from .errors import MissingNuisanceError, StartError, TrackingError
 from .filter_setup import FilterSetup, state_vector
 
-__all__ = ["CONFIRM_P_VALUE", "DEFAULT_MAX_RELATIVE_STD", "HELD_NUISANCE_CHI2", "MIN_WINDOW",
+__all__ = ["CONFIRM_P_VALUE", "DEFAULT_MAX_RELATIVE_STD", "HELD_NUISANCE_CHI2",
+           "LIKELIHOOD_TOLERANCE", "MAX_PROFILE_WIDTH", "MIN_WINDOW",
            "BatchInitiator",
            "BatchStart", "BearingInitiator", "BearingStart", "Confirmation", "Initiation",
            "Initiator", "PriorInitiator", "PriorStart", "Rejection", "StartRecord",
-           "WindowChoice", "WindowEstimate", "search_window"]
+           "WindowChoice", "WindowEstimate", "likelihood_covariance", "search_window"]
 
 #: Default start quality: the position's largest 1-sigma semi-axis over the range.
 DEFAULT_MAX_RELATIVE_STD = 0.25
@@ -60,6 +63,12 @@ WARM_MARGIN = 0.02
 #: covariances when a one-sigma error in it adds more than this to the chi-square of the rows
 #: that follow.
 HELD_NUISANCE_CHI2 = 1.0
+#: The profile likelihood of a batch start is followed out to this many linearised 95 %
+#: half-widths along the major axes of position and velocity (:func:`likelihood_covariance`)
+MAX_PROFILE_WIDTH = 100.0
+#: ... and its covariance widened when an end of the profile lies outside its 95 % ellipsoid by
+#: more than this factor.
+LIKELIHOOD_TOLERANCE = 1.1
 
 
 @dataclass(frozen=True)
@@ -398,6 +407,119 @@ def _relative_std(result: EstimateResult, rows: MeasurementSet, time: float, dim
     rng = float(np.min(ranges))
     major = float(np.sqrt(max(np.max(np.linalg.eigvalsh(cov)), 0.0)))
     return major / rng if rng > 0 else np.inf
+
+
+def likelihood_covariance(result: EstimateResult, rows: MeasurementSet, time: float, dim: int,
+                          options: Mapping[str, Mapping[str, object]] | None = None) -> Array:
+    """Give the fit's covariance widened to its profile likelihood in position and velocity.
+
+    The profile likelihood of ``rows`` (the other parameters re-fitted by Gauss-Newton at each
+    point, the nuisance held) is followed along the major axis of the position's covariance at
+    ``time``, then of the velocity's, on either side out to where its chi-square has risen by
+    the 95 % chi-square quantile for all ``p`` parameters (the boundary of the likelihood
+    region, Venzon & Moolgavkar 1988).  Where that end point lies outside the covariance's
+    95 % ellipsoid by more than ``LIKELIHOOD_TOLERANCE`` times, the covariance is widened by a
+    rank-one term along it until it lies on the ellipsoid: the same covariance for a Gaussian
+    likelihood.  A linearised (Cramer-Rao type) covariance is overconfident where the
+    likelihood is far from Gaussian, as in range on a short bearings-only window (Aidala &
+    Hammel 1983).
+
+    Parameters
+    ----------
+    result : EstimateResult
+        A converged batch estimate over ``rows``.
+    rows : MeasurementSet
+        Its measurements.
+    time : float
+        The time of the position (s).
+    dim : int
+        Spatial dimension, 2 or 3.
+    options : mapping, optional
+        Per-kind measurement-model options.
+
+    Returns
+    -------
+    ndarray
+        The covariance of ``result.estimate``, ``(p, p)``: ``result.covariance`` when the
+        profile interval lies inside the linearised one.
+    """
+    theta, cov = result.estimate, result.covariance
+    if not np.all(np.isfinite(cov)):
+        return cov
+    obs = ObservationModel(rows, result.motion, options)
+    noise = NoiseModel(rows)
+    nu = (obs.nuisance_vector({n: v for n, (v, _) in result.nuisance.items()})
+          if obs.n_nuisance else None)
+
+    def cost_at(point: Array) -> float:
+        return float(np.sum(noise.whiten(obs.residuals(point, nu)) ** 2))
+
+    quantile = float(chi2.ppf(0.95, len(theta)))
+    base = cost_at(theta)
+    states = result.motion.jacobian(theta, np.array([time]))[0]
+    wide = cov
+    for block in (range(dim), range(3, 3 + dim)):  # the position's, then the velocity's axis
+        jac = states[list(block)]
+        axis = np.linalg.eigh(jac @ wide @ jac.T)[1][:, -1]
+        row = axis @ jac  # the profiled combination of theta
+        if not row @ wide @ row > 0:
+            continue
+        for sign in (1.0, -1.0):
+            d = _profile_end(theta, wide, sign * row, cost_at, obs, noise, nu, base + quantile)
+            m = float(d @ np.linalg.pinv(wide, hermitian=True) @ d)
+            if np.isfinite(m) and m > quantile * LIKELIHOOD_TOLERANCE ** 2:
+                wider = wide + (m / quantile - 1.0) / m * np.outer(d, d)
+                if np.all(np.linalg.eigvalsh(wider) > 0):  # (not lost to rounding)
+                    wide = wider
+    return wide
+
+
+def _profile_end(theta: Array, cov: Array, row: Array, cost_at: Any, obs: ObservationModel,
+                 noise: NoiseModel, nu: Array | None, limit: float) -> Array:
+    """Give the step from ``theta`` up ``row @ theta`` to where its profile cost hits ``limit``."""
+    sigma = float(np.sqrt(max(float(row @ cov @ row), 0.0)))
+    if not (np.isfinite(sigma) and sigma > 0):
+        return np.zeros_like(theta)
+    path = cov @ row / sigma  # one linearised sigma up ``row @ theta``
+    free = np.linalg.svd(row[None])[2][1:].T  # (p, p - 1): directions that keep it
+
+    def refit(point: Array) -> tuple[Array, float]:
+        """Gauss-Newton on the free directions, a step kept only when it lowers the cost."""
+        cost = cost_at(point)
+        for _ in range(6):
+            r = noise.whiten(obs.residuals(point, nu))
+            a = noise.whiten(obs.jacobian(point, nu)[0] @ free, axis=-2)
+            if not (np.all(np.isfinite(r)) and np.all(np.isfinite(a))):
+                break
+            step = free @ np.linalg.lstsq(a, r, rcond=None)[0]
+            for _ in range(4):
+                trial = cost_at(point + step)
+                if trial < cost:
+                    point, cost = point + step, trial
+                    break
+                step = step / 2
+            else:
+                break
+        return point, cost
+
+    def profile(point: Array, c: float) -> tuple[Array, float]:
+        return refit(point + ((theta - point) @ row + c * sigma) / sigma * path)
+
+    inside, c_in, c_out = theta, 0.0, np.inf
+    for c in np.geomspace(1.0, MAX_PROFILE_WIDTH, 25) * np.sqrt(limit - cost_at(theta)):
+        point, cost = profile(inside, float(c))
+        if not (np.isfinite(cost) and cost < limit):
+            c_out = float(c)
+            break
+        inside, c_in = point, float(c)
+    for _ in range(6 if np.isfinite(c_out) else 0):  # bisect the crossing
+        mid = (c_in + c_out) / 2
+        point, cost = profile(inside, mid)
+        if np.isfinite(cost) and cost < limit:
+            inside, c_in = point, mid
+        else:
+            c_out = mid
+    return inside - theta
 
 
 class _Windows:
@@ -830,7 +952,11 @@ class BatchInitiator(Initiator):
                                  ) from None
             w = found.chosen
             assert w.estimate is not None
-            filt = setup.from_estimate(w.estimate, w.time)
+            rows = meas.take(meas.time <= w.time + 1e-9)
+            wide = likelihood_covariance(w.estimate, rows, w.time, setup.dim,
+                                         setup.options or None)
+            filt = setup.from_estimate(replace(w.estimate, covariance=wide,
+                                               std=np.sqrt(np.diag(wide))), w.time)
             mean, cov, nuisance = filt.state, filt.covariance, dict(filt.nuisance)
             rest = meas.take(meas.time > w.time + 1e-9)
             after = filt.run(rest)
