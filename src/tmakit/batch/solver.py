@@ -32,10 +32,15 @@ __all__ = ["DAMPING", "DOMINANCE_FACTOR", "DOMINANCE_MARGIN", "POLISH_INFORMATIO
 
 def gram(j: Array) -> Array:
     """Form ``J^T J`` ``(B, p, p)`` of ``J`` ``(B, n, p)`` (or ``(p, p)`` of ``(n, p)``)."""
-    n, p = j.shape[-2:]
     if j.ndim == 2 and by_dots(j):
         return normal_rows(j.T)[0]
-    jt = np.swapaxes(j, -1, -2)
+    return _gram_by_products(j)
+
+
+def _gram_by_products(j: Array) -> Array:
+    """Form ``J^T J`` as :func:`gram` does without dot products (by row blocks if many)."""
+    n, p = j.shape[-2:]
+    jt = j.swapaxes(-1, -2)
     block = max(1, SINGLE_THREAD_WORK // max(1, p * p))
     if n <= block:
         return jt @ j
@@ -83,11 +88,12 @@ def normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[Ar
         keep = free if jac.shape[-1] == free.size else np.ones(jac.shape[-1], np.bool_)
         jac = jac[:, :, keep]
     if jac.shape[0] == 1:  # one run: 2-D products (cheaper calls than batched ones)
-        if by_dots(jac[0]):
-            jtj, jtr = normal_rows(jac[0].T, ev.residual[0])
+        j = jac[0]
+        if by_dots(j):
+            jtj, jtr = normal_rows(j.T, ev.residual[0])
             assert jtr is not None  # (given the residuals)
             return jtj[None], jtr[None]
-        return gram(jac[0])[None], ev.residual[0].dot(jac[0])[None]
+        return _gram_by_products(j)[None], ev.residual[0].dot(j)[None]
     return gram(jac), (jac.swapaxes(1, 2) @ ev.residual[:, :, None])[..., 0]
 
 
@@ -125,16 +131,16 @@ class GaussNewtonModel:
     def _one(cls, jtj: Array, grad: Array, cost: float, gtol: float) -> GaussNewtonModel | None:
         """Build a single run's model as :meth:`at` does, in 2-D arrays (fewer calls)."""
         # the scale in floats (p is small): the same bits as in :meth:`at`
-        scale = np.array([math.sqrt(max(d, 1e-300)) for d in jtj.diagonal().tolist()])
+        roots = [math.sqrt(max(d, 1e-300)) for d in jtj.diagonal().tolist()]
+        scale = np.array(roots)
         try:
             evals, v = eigh(jtj / np.multiply.outer(scale, scale))
         except np.linalg.LinAlgError:
             return None
-        w = np.maximum(evals, 1e-12 * evals[-1])  # floored as in :meth:`at`
+        w = np.maximum(evals, 1e-12 * float(evals[-1]))  # floored as in :meth:`at`
         vg = (grad / scale).dot(v)
         limit = gtol * math.sqrt(2.0 * cost)  # the gradient test in floats (p is small)
-        small = all(abs(g) <= limit * s for g, s in zip(grad.tolist(), scale.tolist(),
-                                                          strict=True))
+        small = all(abs(g) <= limit * s for g, s in zip(grad.tolist(), roots, strict=True))
         return cls(w[None], v[None], vg[None], scale[None],
                    np.array([0.5 * vg.dot(vg / w)]), np.array([small]), jtj[None], evals[None])
 
@@ -490,7 +496,7 @@ def _damp_one(runs: _Runs, better: bool, cost: float, trial: float, predicted: f
         lam, grow = max(lam * max(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3), 1e-12), 2.0
     else:
         lam, grow = lam * grow, 2.0 * grow
-    runs.lam, runs.grow = np.array([lam]), np.array([grow])
+    runs.lam[0], runs.grow[0] = lam, grow  # (the run's own arrays)
 
 
 def _after_step_one(runs: _Runs, trial: Evaluation, step: Array, predicted: float,
@@ -504,8 +510,8 @@ def _after_step_one(runs: _Runs, trial: Evaluation, step: Array, predicted: floa
         abs(s) <= rules.xtol * (abs(t) + 1.0)
         for s, t in zip(step[0].tolist(), trial.theta[0].tolist(), strict=True))
     if better:
-        if runs.model is not None and runs.model.jtj is not None:
-            runs.previous = (runs.cur.theta[0], runs.model.jtj[0])
+        if rules.polish > 0 and runs.model is not None and runs.model.jtj is not None:
+            runs.previous = (runs.cur.theta[0], runs.model.jtj[0])  # (read by _polished)
         runs.cur, runs.model = trial, None
     if tiny or float(runs.lam[0]) > 1e12:
         runs.stop(np.ones(1, dtype=bool), np.array([tiny]))

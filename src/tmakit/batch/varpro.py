@@ -67,9 +67,11 @@ class DeferredNormal:
 def motion_normal(obs: Any, lin: Linearisation, residual: Array, weights: Array | None
                   ) -> DeferredNormal | None:
     """Give ``J'J`` and ``J'r`` of the whitened Jacobian from the motion model, or None."""
+    if (weights is None or lin.planar_jacobian is not None or lin.d_h0 is None or lin.d_a
+            or lin.d_h0_ref is not None or lin.theta.ndim != 2):
+        return None
     normal = getattr(obs.motion, "normal_equations_later", None)
-    if (normal is None or weights is None or lin.planar_jacobian is not None or lin.d_h0 is None
-            or lin.d_a or lin.d_h0_ref is not None or lin.theta.ndim != 2):
+    if normal is None:
         return None
     make = normal(lin.d_h0, residual, weights, lin.theta, obs._time)
     return None if make is None else DeferredNormal(make, residual.shape[0])
@@ -367,8 +369,9 @@ class VarProProblem:
         at = lin.a_var.swapaxes(-1, -2) if self.k else None
         # y - A_const nu* - h0 - A_var nu*: no two large numbers meet after data_part.
         # The planar path's h0 is its own fresh array, read only here: the residual takes it.
-        own = lin.planar_jacobian is not None and lin.h0.shape == u.shape
-        e = np.subtract(u, lin.h0, out=lin.h0) if own else u - lin.h0
+        h0 = lin.h0
+        own = lin.planar_jacobian is not None and h0.shape == u.shape
+        e = np.subtract(u, h0, out=h0) if own else u - h0
         if at is not None:
             e -= (nu_star[:, None, :] @ at)[:, 0, :]
         if self.all_angle:

@@ -9,6 +9,7 @@ the set's own.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from functools import cached_property
 from typing import cast
 
 import numpy as np
@@ -21,7 +22,7 @@ from ..data import MeasurementSet
 from ..measurements import MeasurementModel, model_for, options_with_metadata
 from ..motion import MotionModel
 from .affine_rows import AffineRows
-from .planar import Linearisation, planar_linearisation, planar_values
+from .planar import Linearisation, planar_kind, planar_linearisation, planar_values
 from .rows import RowModel, group_by_kind
 
 
@@ -174,6 +175,11 @@ class ObservationModel:
                             else self._rel_map_ref.take(pick[sub._ref] - self._ref.start))
         sub._const_design = None if self._const_design is None else self._const_design[pick]
         return sub
+
+    @cached_property
+    def planar_kind(self) -> tuple[AffineRows, MeasurementModel] | None:
+        """The affine row map and the one kind's model of the planar path, or None."""
+        return planar_kind(self)
 
     @property
     def n_nuisance(self) -> int:

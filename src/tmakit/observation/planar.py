@@ -22,6 +22,7 @@ __all__ = [
     "PlanarUnits",
     "gradient_of_rows",
     "planar_gradient_rows",
+    "planar_kind",
     "planar_linearisation",
     "planar_units",
     "planar_values",
@@ -130,26 +131,30 @@ class PlanarUnits:
 
 def planar_units(obs: Any, rows: NDArray[np.int64] | None = None) -> PlanarUnits | None:
     """Give :class:`PlanarUnits` of the rows ``rows`` of ``obs`` (grouped order), or None."""
+    found = obs.planar_kind
+    unit = None if found is None else getattr(found[1], "planar_unit", None)
+    if unit is None:
+        return None
+    return PlanarUnits(found[0].leading_map(2, rows), unit)
+
+
+def planar_kind(obs: Any) -> tuple[AffineRows, Any] | None:
+    """Give the affine row map and the model of a set of one kind without nuisance, or None."""
     rel_map = obs._rel_map
     if (rel_map is None or obs.n_nuisance or obs._ref is not None
             or len(obs.models) != 1):
         return None
-    unit = getattr(next(iter(obs.models.values())), "planar_unit", None)
-    if unit is None:
-        return None
-    return PlanarUnits(rel_map.leading_map(2, rows), unit)
+    return rel_map, next(iter(obs.models.values()))
 
 
 def _planar_kind(obs: Any, theta: Array, method: str) -> tuple[Any, Any, Array] | None:
     """Give the affine row map, the one kind's model (with ``method``) and the checked theta."""
-    rel_map = obs._rel_map
-    if (not (theta.ndim == 1 or (theta.ndim == 2 and theta.shape[0] == 1)) or rel_map is None
-            or obs.n_nuisance or obs._ref is not None or len(obs.models) != 1):
+    if not (theta.ndim == 1 or (theta.ndim == 2 and theta.shape[0] == 1)):
         return None
-    model = next(iter(obs.models.values()))
-    if not hasattr(model, method) or theta.shape[-1] != rel_map.p:
+    found = obs.planar_kind  # (the set's, made once)
+    if found is None or theta.shape[-1] != found[0].p or not hasattr(found[1], method):
         return None
-    return rel_map, model, np.asarray(theta, dtype=float)  # (of the motion's length: checked)
+    return found[0], found[1], np.asarray(theta, dtype=float)  # (of the motion's length)
 
 
 def _jacobian_again(obs: Any, theta: Array, weights: Array | None) -> Array:
@@ -197,30 +202,32 @@ class Linearisation:
         ``(..., n)`` and ``(..., n, k)``, SI.
     """
 
+    #: Makes :attr:`h0` on first use when made without it (the planar path: a bound needs the
+    #: derivatives alone).
+    planar_values: Callable[[], Array] | None = None
+    d_h0: Array | None = None
+    d_h0_ref: Array | None = None
+    #: The relative states ``(..., n, c)`` it was made from (east and north first; the planar
+    #: path makes these two alone), or None.
+    relative: Array | None = None
+    #: The Jacobian ``(..., n, p)`` made by the planar path (:mod:`.planar`), or None, handed
+    #: over on the first call of :meth:`jacobian` (the caller may scale it), then made again by
+    #: ``planar_again``.
+    planar_jacobian: Array | None = None
+    #: The planar path's squared east-north distances ``(m,)`` to the sensors, m^2.
+    planar_squared: Array | None = None
+    planar_again: Callable[[], Array] | None = None
+    _planar_given = False
+    #: Whether the planar Jacobian is already whitened (made with the noise's weights).
+    whitened = False
+
     def __init__(self, obs: Any, theta: Array, h0: Array | None, a_var: Array) -> None:
+        # (the attributes above are set on the instance where they differ)
         self.obs = obs
         self.theta = theta
         self._h0 = h0
-        #: Makes :attr:`h0` on first use when made without it (the planar path: a bound
-        #: needs the derivatives alone).
-        self.planar_values: Callable[[], Array] | None = None
         self.a_var = a_var
-        self.d_h0: Array | None = None
-        self.d_h0_ref: Array | None = None
         self.d_a: list[tuple[str, Array | None, Array | None]] = []
-        #: The relative states ``(..., n, c)`` it was made from (east and north first; the
-        #: planar path makes these two alone), or None.
-        self.relative: Array | None = None
-        #: The Jacobian ``(..., n, p)`` made by the planar path (:mod:`.planar`), or None,
-        #: handed over on the first call of :meth:`jacobian` (the caller may scale it), then
-        #: made again by ``planar_again``.
-        self.planar_jacobian: Array | None = None
-        #: The planar path's squared east-north distances ``(m,)`` to the sensors, m^2.
-        self.planar_squared: Array | None = None
-        self.planar_again: Callable[[], Array] | None = None
-        self._planar_given = False
-        #: Whether the planar Jacobian is already whitened (made with the noise's weights).
-        self.whitened = False
 
     @property
     def h0(self) -> Array:
