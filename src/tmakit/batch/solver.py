@@ -230,7 +230,7 @@ class SolveResult:
     decomposition: tuple[Array, Array, Array] | None = None
 
 
-@dataclass(frozen=True)
+@dataclass  # (not frozen: a frozen dataclass's __init__ sets each field by object.__setattr__)
 class _Rules:
     """The tests and schedule of one :func:`levenberg_marquardt` call (see there)."""
 

@@ -391,7 +391,9 @@ class RowModel:
         """
         m, k = len(self), len(self.nuisance_names)
         out = np.zeros((m, k))
-        rel = np.ones((m if k else 0, 6))  # any finite geometry (none without nuisance)
+        if not k:  # no nuisance: no column
+            return out
+        rel = np.ones((m, 6))  # any finite geometry
         for kind, model in self.models.items():
             rows, ns = self._take[kind], self.nuisance_slices[kind]
             if ns.stop > ns.start:
