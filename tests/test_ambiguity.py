@@ -43,6 +43,7 @@ def test_unresolved_before_the_turn_and_the_true_side_after_it(seed):
         assert not s.resolved or s.likelihood_ratio >= 100.0
 
 
+@pytest.mark.long
 def test_turn_cuts_are_named_and_left_out_unless_kept():
     meas, _, turn_end = bench.simulate(np.random.default_rng([7, 0]))
     amb = tk.resolve_ambiguity(meas, "cv2d")

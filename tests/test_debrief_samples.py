@@ -80,6 +80,7 @@ def test_a_sensor_file_with_null_positions_and_gaps_is_read_with_its_track_file(
     assert abs(float(rows["speed"]) - 9.00) < 0.3
 
 
+@pytest.mark.long
 def test_each_leg_is_within_2_deg_and_0_3_kn_or_said_unobservable_never_off(samples):
     results = bench.leg_results(samples)
     verdicts = {(r.sample, round(r.course, 2)): r.verdict for r in results}

@@ -14,7 +14,13 @@ order they appear, as a reader would paste them:
   prints the inventory);
 - a runnable block right after ``<!-- slow: REASON -->`` (a study of minutes, too long for the
   five-minute suite) runs, in its place in the document, only when ``TMAKIT_SLOW_DOCS=1``:
-  ``TMAKIT_SLOW_DOCS=1 python -m pytest tests/test_docs_run.py`` runs every such block too.
+  ``TMAKIT_SLOW_DOCS=1 python -m pytest tests/test_docs_run.py`` runs every such block too;
+- a runnable block right after ``<!-- new session -->`` starts a new session: it and the blocks
+  after it (to the next such comment) run as a reader starting there would paste them, in a
+  fresh folder and a fresh Python namespace, as a test of their own (so that pytest-xdist runs a
+  long document's sessions side by side). ``<!-- new session: given `COMMAND` -->`` first runs
+  ``COMMAND`` (several: `` `A`, `B` ``), which must be a line of an earlier block of the same
+  document (the file the session reads, written as the document writes it).
 
 The folder is empty but for a link ``benchmarks`` to the checkout's ``benchmarks/`` (the docs
 run ``python benchmarks/….py`` from a checkout, as the README says). Shell blocks find
@@ -42,6 +48,8 @@ RUNNABLE = PYTHON | SHELL | CONSOLE
 FENCE = re.compile(r"^(?P<indent> *)(?P<fence>`{3,}|~{3,})(?P<info>[^\n`]*)$")  # in lists too
 NOT_RUN = re.compile(r"^<!--\s*not run\s*:(?P<reason>.*?)-->\s*$", re.S)
 SLOW = re.compile(r"^<!--\s*slow\s*:(?P<reason>.*?)-->\s*$", re.S)
+NEW_SESSION = re.compile(r"^<!--\s*new session\s*(?::\s*given\s*(?P<given>`.*`))?\s*-->\s*$",
+                         re.S)
 RUN_SLOW = os.environ.get("TMAKIT_SLOW_DOCS") == "1"
 BLOCK_TIMEOUT_S = 600
 
@@ -56,6 +64,7 @@ class Block:
     code: str
     skip_reason: str | None  # None: runs (if runnable); "" : a `not run` comment without reason
     slow_reason: str | None = None  # a `slow` block: runs only with TMAKIT_SLOW_DOCS=1
+    given: tuple[str, ...] | None = None  # starts a new session after these commands (or none)
 
     @property
     def skipped(self) -> bool:
@@ -64,7 +73,8 @@ class Block:
 
     @property
     def where(self) -> str:
-        return f"{self.doc.relative_to(ROOT)}:{self.line}"
+        doc = self.doc.relative_to(ROOT) if self.doc.is_relative_to(ROOT) else self.doc
+        return f"{doc}:{self.line}"
 
 
 def blocks(doc: Path) -> list[Block]:
@@ -86,13 +96,14 @@ def blocks(doc: Path) -> list[Block]:
         code = "\n".join(ln[indent:] if not ln[:indent].strip() else ln.lstrip()
                          for ln in lines[i + 1:end]) + "\n"
         found.append(Block(doc, i + 1, info.split()[0].lower() if info else "", code,
-                           _skip_reason(lines, i), _skip_reason(lines, i, SLOW)))
+                           _skip_reason(lines, i), _skip_reason(lines, i, SLOW),
+                           _new_session(lines, i)))
         i = end + 1
     return found
 
 
-def _skip_reason(lines: list[str], fence_index: int, marker: re.Pattern = NOT_RUN) -> str | None:
-    """The reason of a `<!-- not run: … -->` (or ``marker``) comment just before a fence."""
+def _comment_before(lines: list[str], fence_index: int) -> str | None:
+    """The HTML comment just before a fence (blank lines between allowed), if any."""
     j = fence_index - 1
     while j >= 0 and not lines[j].strip():
         j -= 1
@@ -101,8 +112,23 @@ def _skip_reason(lines: list[str], fence_index: int, marker: re.Pattern = NOT_RU
     k = j
     while k >= 0 and "<!--" not in lines[k]:
         k -= 1
-    m = marker.match("\n".join(lines[k:j + 1]).strip()) if k >= 0 else None
+    return "\n".join(lines[k:j + 1]).strip() if k >= 0 else None
+
+
+def _skip_reason(lines: list[str], fence_index: int, marker: re.Pattern = NOT_RUN) -> str | None:
+    """The reason of a `<!-- not run: … -->` (or ``marker``) comment just before a fence."""
+    comment = _comment_before(lines, fence_index)
+    m = marker.match(comment) if comment is not None else None
     return None if m is None else " ".join(m.group("reason").split())
+
+
+def _new_session(lines: list[str], fence_index: int) -> tuple[str, ...] | None:
+    """The commands of a `<!-- new session: given `…` -->` comment just before a fence."""
+    comment = _comment_before(lines, fence_index)
+    m = NEW_SESSION.match(comment) if comment is not None else None
+    if m is None:
+        return None
+    return tuple(" ".join(c.split()) for c in re.findall(r"`([^`]+)`", m.group("given") or ""))
 
 
 def console_commands(code: str) -> list[str]:
@@ -156,12 +182,35 @@ def run_python(block: Block, namespace: dict) -> None:
                              f"{type(exc).__name__}: {exc}\n{block.code}") from exc
 
 
-def run_document(doc: Path, cwd: Path) -> None:
-    """Run the runnable blocks of ``doc`` in order in the folder ``cwd``."""
-    namespace: dict = {"__name__": "__main__"}
+def sessions(doc: Path) -> list[list[Block]]:
+    """The blocks of ``doc`` that run, in order, split where a `new session` comment starts one."""
+    found: list[list[Block]] = []
     for block in blocks(doc):
         if block.lang not in RUNNABLE or block.skipped:
             continue
+        if not found or block.given is not None:
+            found.append([])
+        found[-1].append(block)
+    return found
+
+
+def shell_lines(block: Block) -> list[str]:
+    """The commands of a shell or console block, one a line, spaces normalised."""
+    if block.lang in CONSOLE:
+        code = console_commands(block.code)
+    elif block.lang in SHELL:
+        code = block.code.replace("\\\n", " ").splitlines()
+    else:
+        return []
+    return [" ".join(ln.split()) for ln in code if ln.strip()]
+
+
+def run_session(session: list[Block], cwd: Path) -> None:
+    """Run one session's blocks in order in the folder ``cwd``, its given commands first."""
+    namespace: dict = {"__name__": "__main__"}
+    for command in session[0].given or ():
+        run_shell(session[0], command, cwd)
+    for block in session:
         if block.lang in PYTHON:
             run_python(block, namespace)
         elif block.lang in SHELL:
@@ -171,12 +220,15 @@ def run_document(doc: Path, cwd: Path) -> None:
                 run_shell(block, command, cwd)
 
 
-def runnable_docs() -> list[Path]:
-    return [d for d in DOCS if any(b.lang in RUNNABLE and not b.skipped for b in blocks(d))]
+def runnable_sessions() -> list:
+    """One pytest parameter a session, named by its document and its first block's line."""
+    return [pytest.param(session, id=f"{doc.name}:{session[0].line}")
+            for doc in DOCS for session in sessions(doc)]
 
 
-@pytest.mark.parametrize("doc", runnable_docs(), ids=lambda p: p.name)
-def test_every_block_of_the_document_runs_in_order(doc, tmp_path, monkeypatch):
+@pytest.mark.long
+@pytest.mark.parametrize("session", runnable_sessions())
+def test_every_block_of_the_session_runs_in_order(session, tmp_path, monkeypatch):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -186,7 +238,7 @@ def test_every_block_of_the_document_runs_in_order(doc, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("MPLBACKEND", "Agg")
     try:
-        run_document(doc, tmp_path)
+        run_session(session, tmp_path)
     finally:
         plt.close("all")
 
@@ -205,7 +257,37 @@ def test_every_block_names_its_language_and_every_skip_its_reason():
                     and b.lang not in RUNNABLE:
                 problems.append(f"{b.where}: `not run` or `slow` before a ```{b.lang} block, "
                                 "which never runs")
+            if b.given is not None and b.lang not in RUNNABLE:
+                problems.append(f"{b.where}: `new session` before a ```{b.lang} block, "
+                                "which never runs")
+        problems += given_problems(doc)
     assert problems == [], "\n".join(problems)
+
+
+def given_problems(doc: Path) -> list[str]:
+    """A session's given command that is no line of an earlier block of ``doc`` that runs."""
+    problems, earlier = [], set()
+    for session in sessions(doc):
+        problems += [f"{session[0].where}: `new session: given `{c}`` is no line of an earlier "
+                     "block: the session would read a file the document does not write"
+                     for c in session[0].given or () if c not in earlier]
+        for b in session:
+            earlier.update(shell_lines(b))
+    return problems
+
+
+def test_a_new_session_comment_starts_a_session_after_commands_of_the_document(tmp_path):
+    doc = tmp_path / "d.md"
+    doc.write_text("```bash\ntma simulate x  -o a.csv\n```\n\n```python\nx = 1\n```\n"
+                   "<!-- new session -->\n```python\ny = 2\n```\n\n"
+                   "<!-- new session: given `tma simulate x -o a.csv`, `touch b` -->\n"
+                   "```bash\ncat a.csv b\n```\n")
+    found = sessions(doc)
+    assert [[b.line for b in s] for s in found] == [[1, 5], [9], [14]]
+    assert [s[0].given for s in found] == [None, (), ("tma simulate x -o a.csv", "touch b")]
+    assert given_problems(doc) == [f"{doc}:14: `new session: given `touch b`` is no line of "
+                                   "an earlier block: the session would read a file the "
+                                   "document does not write"]
 
 
 def test_console_commands_join_continuation_lines():

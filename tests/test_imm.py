@@ -91,6 +91,7 @@ def position_errors(tr, meas):
     return np.sum(e**2, axis=1), d2
 
 
+@pytest.mark.long
 def test_imm_smoother_beats_the_filter_and_holds_the_truth():
     """Three seeded hoerst2010 runs: the smoothed RMS below the filtered, and the truth inside
     the smoothed 95 % ellipse in >= 95 % of the (run, step) pairs."""
