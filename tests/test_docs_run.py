@@ -1,9 +1,9 @@
 """Every shell command and Python snippet in README.md and docs/*.md runs as written.
 
-The one doc runner. Each document is run on its own, in a fresh empty folder, its blocks in the
-order they appear, as a reader would paste them:
+The one doc runner. Each document (or each of its sessions, below) is run on its own, in a fresh
+empty folder, its blocks in the order they appear, as a reader would paste them:
 
-- ```` ```python ```` blocks share one interpreter namespace per document (one session);
+- ```` ```python ```` blocks share one interpreter namespace per session;
 - ```` ```bash ```` (or ``sh``, ``shell``) blocks run as a script with ``bash -e -o pipefail``:
   every line must succeed;
 - ```` ```console ```` blocks run their ``$ `` lines (a line ending in ``\\`` continues on the
