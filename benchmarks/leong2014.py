@@ -1,7 +1,14 @@
 """The two bearings-only scenarios of Ristic et al. (2004, ch. 6), as Leong et al. coded them.
 
 ``moderate`` and ``high`` (highly nonlinear) from their published MATLAB script, in metres,
-with their range intervals as range priors.  Used by ``first_bearing.py`` and the tests.
+with their range intervals as range priors.  Used by ``first_bearing.py``,
+``first_bearing_exact.py`` and the tests.
+
+Their filters and their bound start from a different, far more informative prior than
+tmakit's range interval and largest speed: :func:`gaussian_prior` (a Gaussian in range about
+a draw of the true range, the speed known to 2 kn about a draw of the true speed, the course
+the reciprocal of the first bearing, Ristic et al. 2004, sec. 6.2); their bound's ``J_0`` is
+its inverse covariance, the prior's exact Fisher information.
 
 References
 ----------
@@ -18,9 +25,9 @@ import numpy as np
 
 from tmakit.core.arrays import Array
 from tmakit.data import MeasurementSet
-from tmakit.filters import BearingPrior
+from tmakit.filters import BearingPrior, FirstBearing
 
-__all__ = ["KNOT", "Q_DENSITY", "SCENARIOS", "Scenario", "simulate"]
+__all__ = ["KNOT", "Q_DENSITY", "SCENARIOS", "Scenario", "gaussian_prior", "simulate"]
 
 #: The knot as Leong et al. code it (5.14e-4 km/s), m/s.
 KNOT = 0.514
@@ -45,6 +52,7 @@ class Scenario:
     range_prior: tuple[float, float]  # The range interval of the start (m)
     speed_max_kn: float  # The largest speed of the start (kn)
     after: int  # The first sample after the own ship's turn
+    sigma_r: float  # The range std of Leong et al.'s Gaussian prior (m)
 
     def prior(self) -> BearingPrior:
         """Give the start's prior: the range interval and the largest speed."""
@@ -69,9 +77,9 @@ class Scenario:
 
 SCENARIOS = {
     "moderate": Scenario(32, 1.5, (140.0, 20.0), (13, 16), (4920.0, 850.0), 4.0, -140.0,
-                         (499.0, 10990.0), 10.0, 17),
+                         (499.0, 10990.0), 10.0, 17, 2000.0),
     "high": Scenario(30, 2.0, (-80.0, 146.0), (15, 15), (7090.9, 7052.6), 15.0, -135.4,
-                     (1000.0, 22010.0), 25.0, 16),
+                     (1000.0, 22010.0), 25.0, 16, 4000.0),
 }
 
 
@@ -103,3 +111,36 @@ def simulate(scenario: Scenario, rng: np.random.Generator, q_density: float = Q_
                                   ["bearing"] * (steps + 1), z, np.full(steps + 1, sigma),
                                   sensor)
     return meas, tgt
+
+
+def gaussian_prior(scenario: Scenario, first: FirstBearing, rng: np.random.Generator
+                   ) -> tuple[Array, Array]:
+    """Give Leong et al.'s prior of one run: the Gaussian their CKF starts from and their bound.
+
+    Range ``r ~ N(r_bar, sigma_r)`` with ``r_bar`` the true initial range plus a
+    ``N(0, sigma_r)`` draw (redrawn until above 600 m), speed ``N(s_bar, 2 kn)`` with ``s_bar``
+    the true speed plus a ``N(0, 2 kn)`` draw (redrawn until above 0.6 kn), course the first
+    bearing's reciprocal with std ``pi / sqrt(12)``; bearing and course moments mapped to
+    Cartesian coordinates to first order (Ristic et al. 2004, sec. 6.2).  Gives the mean
+    ``(4,)`` and covariance ``(4, 4)`` (m, m/s).
+    """
+    own0 = scenario.own_ship()[0]
+    r_true = math.hypot(scenario.target[0] - own0[0], scenario.target[1] - own0[1])
+    s_true, sd_s = scenario.speed_kn * KNOT, 2.0 * KNOT
+    sd_r, sd_c, sd_b = scenario.sigma_r, math.pi / math.sqrt(12.0), first.sigma
+    r_bar = s_bar = -math.inf
+    while r_bar <= 600.0:
+        r_bar = r_true + sd_r * rng.standard_normal()
+    while s_bar <= 0.6 * KNOT:
+        s_bar = s_true + sd_s * rng.standard_normal()
+    b, c = first.bearing, first.bearing + math.pi
+    mean = np.array([own0[0] + r_bar * math.sin(b), own0[1] + r_bar * math.cos(b),
+                     s_bar * math.sin(c), s_bar * math.cos(c)])
+    cov = np.zeros((4, 4))
+    for i, (along, across, angle) in enumerate(((sd_r, r_bar * sd_b, b),
+                                                (sd_s, s_bar * sd_c, c))):
+        u = np.array([math.sin(angle), math.cos(angle)])  # along the bearing or course
+        e = np.array([math.cos(angle), -math.sin(angle)])
+        cov[2 * i:2 * i + 2, 2 * i:2 * i + 2] = along**2 * np.outer(u, u) \
+            + across**2 * np.outer(e, e)
+    return mean, cov
