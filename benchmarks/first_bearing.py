@@ -309,7 +309,7 @@ def evaluate(scenario: str, filters: list[str], args: argparse.Namespace) -> Non
         if args.per_step:
             print("  per step (k: RMS / PCRB, m): " + ", ".join(
                 f"{k}: {rms[k]:.0f}/{pcrb[k]:.0f}" for k in range(k_all)))
-    for f in filters:
+    for f in (f for f in filters if serr2[f]):
         rms = np.sqrt(np.nanmean(err2[f], axis=0))
         for kind, e2 in serr2[f].items():
             srms = np.sqrt(np.nanmean(e2, axis=0))
