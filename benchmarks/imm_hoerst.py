@@ -10,6 +10,12 @@ the same for the multiple-model particle filter (``mmpf``, the same models), sta
 batch window too or, with ``--range-prior``, from the first bearing (its RMS then over the
 EKF's times only, the same span as the others').
 
+With ``--diagnose``, where the IMM's final-time error comes from: the final-time RMS of a CV
+EKF (no process noise) started from the IMM's own estimate and covariance at the end of the
+target's last manoeuvre and 50 and 100 s after it (the IMM's information there, had it known
+the target ran straight from then on); of the IMM's straight-line model alone; and of the batch
+constant-velocity ML fit of the last leg's bearings alone.
+
     python benchmarks/imm_hoerst.py --runs 100 --seed 1
 """
 
@@ -25,7 +31,7 @@ import numpy as np
 
 import tmakit as tk
 from tmakit.cli.track import nis_verdict
-from tmakit.filters import BearingPrior, smooth
+from tmakit.filters import BearingPrior, ExtendedKalmanFilter, smooth
 from tmakit.filters.imm import START_RELATIVE_STD
 from tmakit.tracking import BatchInitiator, truth_states
 
@@ -51,6 +57,8 @@ def main() -> None:
     parser.add_argument("--no-batch", action="store_true", help="skip the batch ML fits")
     parser.add_argument("--no-mmpf", action="store_true", help="skip the MM-PF")
     parser.add_argument("--jobs", type=int, default=1, help="runs in parallel processes")
+    parser.add_argument("--diagnose", action="store_true",
+                        help="the IMM's final-time error taken apart (see above)")
     args = parser.parse_args()
     settings: dict[str, object] = {}
     if args.turn_rate is not None:
@@ -93,6 +101,12 @@ def main() -> None:
                  + (f", MM-PF {fin['mmpf'] / fin['batch']:.3f}" if mm else "")
                  + " (target <= 1.5)")
     print(line)
+    if args.diagnose:
+        parts = {k: float(np.sqrt(np.mean([r["diagnose"][k] for r in runs])))
+                 for k in runs[0]["diagnose"]}
+        print("the IMM's final-time RMS taken apart: " + ", ".join(
+            f"{k} {v:.0f} m" + (f" ({v / fin['batch']:.2f}x the batch)" if "batch" in fin
+                                else "") for k, v in parts.items()))
     print(f"runs whose NIS says diverged (tma track's check): CV EKF {diverged['ekf']}, "
           f"IMM {diverged['imm']}" + (f", MM-PF {diverged['mmpf']}" if mm else ""))
     print(f"CPU {cpu_s:.0f} s ({args.jobs} processes); load average "
@@ -111,9 +125,11 @@ def one_run(ss: np.random.SeedSequence, names: tuple[str, ...], settings: dict[s
         pf = {"particles": args.particles, "rng": ss} if name == "mmpf" else {}
         tracks[name] = tk.track(meas, name, settings=None if name == "ekf" else {
             **settings, "history": name == "imm"}, **start, **pf)
+    out_diagnose = diagnose(meas, tracks["imm"]) if args.diagnose else {}
     tracks["smoothed imm"] = smooth(tracks["imm"])
     t0 = tracks["ekf"].times[0]
-    out: dict[str, Any] = {"sq": {}, "final": {}, "diverged": {}, "start": t0}
+    out: dict[str, Any] = {"sq": {}, "final": {}, "diverged": {}, "start": t0,
+                           "diagnose": out_diagnose}
     for name, tr in tracks.items():
         keep = tr.times >= t0
         truth = truth_states(meas, tr.times[keep], 2)
@@ -129,6 +145,27 @@ def one_run(ss: np.random.SeedSequence, names: tuple[str, ...], settings: dict[s
         st = fit.motion.states(np.asarray(fit.estimate), t_end)[0]
         out["final"]["batch"] = float(np.sum((st[:2] - truth_states(meas, t_end, 2)[0, :2])
                                              ** 2))
+    return out
+
+
+def diagnose(meas: tk.MeasurementSet, imm: tk.Track) -> dict[str, float]:
+    """Give the squared final-time errors that take the IMM's apart (``--diagnose``)."""
+    truth = tk.load_scenario("hoerst2010").truth
+    turn_end = float(max(v for k, v in truth.items() if k.startswith("t_")))
+    t_end = np.array([meas.time.max()])
+    final = truth_states(meas, t_end, 2)[0, :2]
+    out = {}
+    for delay in (0.0, 50.0, 100.0):
+        k = int(np.flatnonzero(imm.times >= turn_end + delay)[0])
+        ekf = ExtendedKalmanFilter(imm.states[k], imm.covariances[k], float(imm.times[k]))
+        tr = ekf.run(meas.take(np.flatnonzero(meas.time > imm.times[k])))
+        out[f"CV EKF from the IMM at {turn_end + delay:.0f} s"] = float(
+            np.sum((tr.states[-1, :2] - final) ** 2))
+    cv = imm.extra.history.steps[-1].means[0, :2]
+    out["the IMM's straight model alone"] = float(np.sum((cv - final) ** 2))
+    fit = tk.estimate(meas.take(np.flatnonzero(meas.time >= turn_end)), "cv")
+    leg = fit.motion.states(np.asarray(fit.estimate), t_end)[0, :2]
+    out["batch CV fit of the last leg alone"] = float(np.sum((leg - final) ** 2))
     return out
 
 
