@@ -8,7 +8,9 @@ the ratio of the IMM's RMS position error over the whole track to the CV EKF's (
 error to the batch piecewise-curvilinear ML estimate's over all the data (issue 28: <= 1.5);
 the same for the multiple-model particle filter (``mmpf``, the same models), started by the
 batch window too or, with ``--range-prior``, from the first bearing (its RMS then over the
-EKF's times only, the same span as the others').
+EKF's times only, the same span as the others'), and its smoother (backward simulation,
+``--paths`` paths). For every filter and smoother, the share of (run, step) pairs whose truth
+lies inside the 95 % position ellipse.
 
 With ``--diagnose``, where the IMM's final-time error comes from: the final-time RMS of a CV
 EKF (no process noise) started from the IMM's own estimate and covariance at the end of the
@@ -36,6 +38,7 @@ from tmakit.filters.imm import START_RELATIVE_STD
 from tmakit.tracking import BatchInitiator, truth_states
 
 LARGER = "the innovations are larger"
+CHI2_95 = 5.991  # chi-square 95 % quantile, 2 dof
 
 
 def main() -> None:
@@ -56,6 +59,8 @@ def main() -> None:
                         help="with --range-prior: the largest speed (m/s)")
     parser.add_argument("--no-batch", action="store_true", help="skip the batch ML fits")
     parser.add_argument("--no-mmpf", action="store_true", help="skip the MM-PF")
+    parser.add_argument("--paths", type=int, default=200,
+                        help="the MM-PF smoother's paths (backward simulation)")
     parser.add_argument("--jobs", type=int, default=1, help="runs in parallel processes")
     parser.add_argument("--diagnose", action="store_true",
                         help="the IMM's final-time error taken apart (see above)")
@@ -67,7 +72,7 @@ def main() -> None:
         settings["model_q"] = args.model_q
     prior = None if args.range_prior is None else BearingPrior(*args.range_prior,
                                                                args.speed_prior)
-    names = ("ekf", "imm", "smoothed imm") + (() if args.no_mmpf else ("mmpf",))
+    names = ("ekf", "imm", "smoothed imm") + (() if args.no_mmpf else ("mmpf", "smoothed mmpf"))
     seeds = np.random.SeedSequence(args.seed).spawn(args.runs)
     cpu = os.times()
     with ProcessPoolExecutor(args.jobs) as pool:
@@ -77,6 +82,7 @@ def main() -> None:
     final = {k: [r["final"][k] for r in runs] for k in (*names, "batch") if runs[0]["final"].get(k)
              is not None}
     diverged = {k: sum(r["diverged"][k] for r in runs) for k in names}
+    inside = {k: float(np.mean(np.concatenate([r["inside"][k] for r in runs]))) for k in names}
     starts = [r["start"] for r in runs]
     used = os.times()
     cpu_s = (used.user + used.children_user) - (cpu.user + cpu.children_user)
@@ -90,7 +96,8 @@ def main() -> None:
     mm = "mmpf" in rms
     print(f"RMS position error over the track: CV EKF {rms['ekf']:.0f} m, IMM "
           f"{rms['imm']:.0f} m (smoothed {rms['smoothed imm']:.0f} m)"
-          + (f", MM-PF ({args.particles} particles) {rms['mmpf']:.0f} m" if mm else "")
+          + (f", MM-PF ({args.particles} particles) {rms['mmpf']:.0f} m (smoothed, "
+             f"{args.paths} paths, {rms['smoothed mmpf']:.0f} m)" if mm else "")
           + f"; ratio to the EKF: IMM {rms['imm'] / rms['ekf']:.3f}"
           + (f", MM-PF {rms['mmpf'] / rms['ekf']:.3f}" if mm else "") + " (target <= 0.5)")
     line = (f"final-time RMS: CV EKF {fin['ekf']:.0f} m, IMM {fin['imm']:.0f} m"
@@ -109,6 +116,8 @@ def main() -> None:
                                 else "") for k, v in parts.items()))
     print(f"runs whose NIS says diverged (tma track's check): CV EKF {diverged['ekf']}, "
           f"IMM {diverged['imm']}" + (f", MM-PF {diverged['mmpf']}" if mm else ""))
+    print("truth inside the 95 % position ellipse, share of (run, step) pairs: "
+          + ", ".join(f"{k} {100 * v:.1f} %" for k, v in inside.items()))
     print(f"CPU {cpu_s:.0f} s ({args.jobs} processes); load average "
           f"{', '.join(f'{v:.1f}' for v in os.getloadavg())}")
 
@@ -119,22 +128,29 @@ def one_run(ss: np.random.SeedSequence, names: tuple[str, ...], settings: dict[s
     sim = tk.load_scenario("hoerst2010").simulate(np.random.default_rng(ss))
     meas = sim.take(np.flatnonzero(sim.kind == "bearing"))
     tracks = {}
-    for name in [k for k in names if k != "smoothed imm"]:
+    for name in [k for k in names if not k.startswith("smoothed")]:
         start = {"bearing_prior": prior} if name == "mmpf" and prior is not None else {
             "initiator": BatchInitiator(max_relative_std=args.start_std)}
         pf = {"particles": args.particles, "rng": ss} if name == "mmpf" else {}
         tracks[name] = tk.track(meas, name, settings=None if name == "ekf" else {
-            **settings, "history": name == "imm"}, **start, **pf)
+            **settings, "history": True}, **start, **pf)
     out_diagnose = diagnose(meas, tracks["imm"]) if args.diagnose else {}
     tracks["smoothed imm"] = smooth(tracks["imm"])
+    if "mmpf" in tracks:
+        tracks["smoothed mmpf"] = smooth(tracks["mmpf"], trajectories=args.paths,
+                                         rng=np.random.default_rng(ss.spawn(1)[0]))
+        tracks["mmpf"].extra.history = None  # the clouds are large
     t0 = tracks["ekf"].times[0]
-    out: dict[str, Any] = {"sq": {}, "final": {}, "diverged": {}, "start": t0,
+    out: dict[str, Any] = {"sq": {}, "final": {}, "diverged": {}, "inside": {}, "start": t0,
                            "diagnose": out_diagnose}
     for name, tr in tracks.items():
         keep = tr.times >= t0
         truth = truth_states(meas, tr.times[keep], 2)
-        e = np.linalg.norm(tr.states[keep, :2] - truth[:, :2], axis=1)
+        d = tr.states[keep, :2] - truth[:, :2]
+        e = np.linalg.norm(d, axis=1)
         out["sq"][name] = e**2
+        out["inside"][name] = np.einsum("ki,kij,kj->k", d,
+                                        np.linalg.inv(tr.covariances[keep, :2, :2]), d) < CHI2_95
         out["final"][name] = float(e[-1] ** 2)
         ok = np.isfinite(tr.nis)
         out["diverged"][name] = nis_verdict(float(np.sum(tr.nis[ok])),

@@ -148,6 +148,54 @@ def test_command_smooths_the_sum_per_component(tmp_path):
     assert len(data["smoothed"]) == len(data["estimate"])
 
 
+
+def moments(sums):
+    """The moment match of each row's sum, in numpy alone."""
+    out = []
+    for row in sums:
+        w, m, p = (np.array(row[k]) for k in ("weights", "means", "covariances"))
+        mean = w @ m
+        d = m - mean
+        out.append((mean, np.einsum("c,cij->ij", w, p) + np.einsum("c,ci,cj->ij", w, d, d)))
+    return np.array([a for a, _ in out]), np.array([b for _, b in out])
+
+
+def test_command_gives_the_filtered_and_smoothed_sums(tmp_path):
+    """``--sums`` puts each row's filtered and smoothed Gaussian sum in the JSON: their moment
+    match is the reported estimate and smoothed track, with their covariances."""
+    path = tmp_path / "moderate.csv"
+    tk.write_measurements(moderate_run(7)[0], path)
+    out = CliRunner().invoke(app, ["track", str(path), "--filter", "gsf", "--q-density", "9e-6",
+                                   "--range-prior", "499:10990", "--speed-prior", "5.14",
+                                   "--smooth", "--sums", "--json"])
+    assert out.exit_code == 0, out.output
+    data = json.loads(out.output)
+    rows = len(data["time"])
+    assert len(data["sums"]) == len(data["smoothed_sums"]) == rows
+    # the first row is the prior's sum; ``components`` counts the sums after each update
+    assert [len(r["weights"]) for r in data["sums"][1:]] == data["components"]
+    assert {len(r["weights"]) for r in data["smoothed_sums"]} == {data["components"][-1]}
+    for key, mean, cov in (("sums", "estimate", "covariance"),
+                           ("smoothed_sums", "smoothed", "smoothed_covariance")):
+        m, p = moments(data[key])
+        assert np.allclose([sum(r["weights"]) for r in data[key]], 1.0)
+        assert np.allclose(m, data[mean], rtol=1e-9, atol=1e-6), key
+        assert np.allclose(p, data[cov], rtol=1e-7, atol=1e-6), key
+    plain = tk.track(tk.read_measurements(path), "gsf")
+    with pytest.raises(ValueError, match="kept no Gaussian sums"):
+        tk.tracking.track_dict(plain, sums=True)
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--filter", "pf", "--sums", "--json"], "--filter pf keeps no Gaussian sum"),
+    (["--filter", "gsf", "--sums"], "give --json"),
+])
+def test_command_refuses_sums_without_a_sum_or_json(tmp_path, args, words):
+    path = tmp_path / "moderate.csv"
+    tk.write_measurements(moderate_run(7)[0], path)
+    out = CliRunner().invoke(app, ["track", str(path), *args])
+    assert out.exit_code == 2 and words in out.output, out.output
+
 def test_three_d_sums_smooth_through_the_general_path():
     """Bearings and elevations in 3-D take the Python path; its lineage smooths the same way:
     the last row is the filtered sum, and the first bearing's position is known far better

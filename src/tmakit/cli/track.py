@@ -93,6 +93,10 @@ SmoothOption = Annotated[bool, typer.Option(
     "--smooth", help="also give the smoothed track (Rauch-Tung-Striebel for the Gaussian "
                      "filters and the Gaussian sum; two-filter for imm; backward simulation for "
                      "pf and mmpf)")]
+SumsOption = Annotated[bool, typer.Option(
+    "--sums", help="--filter gsf with --json: each row's Gaussian sum (components' weights, "
+                   "means, covariances), and with --smooth or --lag the smoothed sum's (it "
+                   "makes the JSON ten times larger or more)")]
 LagOption = Annotated[int | None, typer.Option(
     help="a fixed-lag smoother (implies --smooth): each state given the data up to N "
          "updates after it")]
@@ -119,8 +123,8 @@ def track(
     speed_prior: SpeedPriorOption = None, height_prior: HeightPriorOption = None,
     component: ComponentOption = "ekf", model_q: ModelQOption = None, transition:
     TransitionOption = None, turn_rate: TurnRateOption = None, smooth: SmoothOption = False,
-    lag: LagOption = None, particles: ParticlesOption = None, seed: SeedOption = None,
-    prior: Annotated[str | None, typer.Option(
+    lag: LagOption = None, sums: SumsOption = False, particles: ParticlesOption = None,
+    seed: SeedOption = None, prior: Annotated[str | None, typer.Option(
         help="start from this state instead of a batch estimate, e.g. "
              "x=4000,y=9000,vx=-6,vy=-3 (m, m/s); needs --prior-std")] = None,
     prior_std: Annotated[str | None, typer.Option(
@@ -159,15 +163,16 @@ def track(
     """
     output, plot = check_track_options(output, plot, force, filter_name, particles, seed,
                                        ellipses, rows, (*files, logs["mapping"]))
+    check_sums(sums, filter_name, as_json, follow)
     check_units(units)
     page = check_solution_outputs(html, None, force, [*files], taken=[plot]).html
     reading = (parse_origin(origin), dim, reader_options(**logs))
     options = model_options(drift, free_exponent, propagation_speed)
     tracked = partial(track_files, reading=reading, q=(q, q_density), filter_name=filter_name,
-                      smooth=(smooth, lag), keywords=start_keywords(
+                      smooth=(smooth, lag, sums), keywords=start_keywords(
                           (prior, prior_std, nuisance, prior_time),
                           (range_prior, speed_prior, height_prior), init_window, start_std,
-                          (particles, seed, component, smooth or lag is not None,
+                          (particles, seed, component, smooth or lag is not None or sums,
                            (model_q, transition, turn_rate)),
                           filter_name, options))
     name, say = Path(" + ".join(map(str, files))), err if as_json else out
@@ -176,7 +181,8 @@ def track(
                                                 force, as_json, sensor, units, options),
                      interval, max_updates, say)
     meas, tr, truth = tracked(list(files))
-    report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units)
+    report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units,
+                 sums)
     write_track_outputs(name, meas, tr, truth, output, plot, ellipses, force, say)
     if page is not None:
         write_track_page(meas, tr, page, force, options, name, say)
@@ -198,7 +204,7 @@ def start_keywords(prior: tuple[str | None, str | None, str | None, float | None
 
 
 def track_files(paths: list[Path], reading: tuple[Any, int | None, dict[str, Any]],
-                q: tuple[str, str], filter_name: str, smooth: tuple[bool, int | None],
+                q: tuple[str, str], filter_name: str, smooth: tuple[bool, int | None, bool],
                 keywords: dict[str, Any], notes: bool = True) -> tuple[Any, Any, Any]:
     """Read the files and track the emitter: the command's work on the data."""
     from .. import tracking
@@ -296,14 +302,17 @@ def update_line(count: int, rows: int, a: Any, trust: str, units: str) -> str:
 
 
 def run_track(meas: Any, filter_name: str, keywords: dict[str, Any], smooth: bool,
-              lag: int | None) -> Any:
-    """Track (:func:`tmakit.track` with ``keywords``), and smooth with ``--smooth``/``--lag``."""
+              lag: int | None, sums: bool = False) -> Any:
+    """Track (:func:`tmakit.track` with ``keywords``), and smooth with ``--smooth``/``--lag``.
+
+    With ``--sums`` the Gaussian sums stay in ``tr.extra.history`` for the JSON.
+    """
     from .. import tracking
 
     try:
         tr = tracking.track(meas, filter_name, **keywords)
         if smooth or lag is not None:
-            tr = smoothed_track(tr, lag)
+            tr = smoothed_track(tr, lag, keep_history=sums)
     except tracking.TrackingError as e:
         raise tracking_failure(e) from None
     except ValueError as e:
@@ -312,7 +321,7 @@ def run_track(meas: Any, filter_name: str, keywords: dict[str, Any], smooth: boo
 
 
 def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answer: Any,
-                 units: str) -> None:
+                 units: str, sums: bool = False) -> None:
     """Print the track (table or one line of JSON), its final answers and the warnings."""
     import json
 
@@ -322,7 +331,7 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
     warnings = measurement_warnings(meas)
     trust = track_trust(tr, warnings)
     if as_json:  # one line: the track is long, and rich's JSON printer slow on it
-        typer.echo(json.dumps({**tracking.track_dict(tr), "answer": answer.as_dict(),
+        typer.echo(json.dumps({**tracking.track_dict(tr, sums=sums), "answer": answer.as_dict(),
                                **trust.as_dict()}))
     else:
         print_track(tr, truth, rows, meas, units)
@@ -584,7 +593,7 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
     return out
 
 
-def smoothed_track(tr: Any, lag: int | None) -> Any:
+def smoothed_track(tr: Any, lag: int | None, keep_history: bool = False) -> Any:
     """Attach the smoothed track (``--smooth``, ``--lag``) to ``tr.extra.smoothed``."""
     from ..filters import smooth
 
@@ -594,8 +603,21 @@ def smoothed_track(tr: Any, lag: int | None) -> Any:
         raise fail(f"--lag: --filter {tr.filter_name}'s smoother is fixed-interval (--smooth); "
                    "the fixed-lag smoother is for the Gaussian filters (ekf, ukf, ckf, gsf)")
     tr.extra.smoothed = smooth(tr, lag=lag)
-    tr.extra.history = None
+    if not keep_history:
+        tr.extra.history = None
     return tr
+
+
+def check_sums(sums: bool, filter_name: str, as_json: bool, follow: bool) -> None:
+    """Refuse ``--sums`` where there is no Gaussian sum or no track JSON to put it in."""
+    if not sums:
+        return
+    if filter_name != "gsf":
+        raise fail(f"--sums: --filter {filter_name} keeps no Gaussian sum; it applies to "
+                   "--filter gsf")
+    if not as_json or follow:
+        raise fail("--sums adds the Gaussian sums to the track's JSON: give --json (without "
+                   "--follow, whose lines carry the latest answer only)")
 
 
 #: The flags of `tma track` for the library parameters its errors name.

@@ -17,11 +17,15 @@ and §9; Godsill, Doucet & West (2004), "Monte Carlo smoothing for nonlinear tim
 
 from __future__ import annotations
 
+import functools
+import math
+from collections.abc import Callable
 from dataclasses import replace
+from typing import cast
 
 import numpy as np
 
-from ..core.arrays import Array
+from ..core.arrays import Array, IntArray
 from ..motion.dynamics import NearlyConstantVelocity
 from .gaussian_sum import SumStep
 from .imm import ModelHistory, imm_smooth, models_of
@@ -83,23 +87,34 @@ def _backward_simulation(history: list, models: list[NearlyConstantVelocity],
 
     With a multiple-model filter's clouds (each particle's model in ``labels``), the model is
     part of the state: the transition density of a particle ``(x, i)`` to a path's ``(x', j)``
-    is ``p_ij N(x'; Phi_j x, Q_j)``, and the paths' model shares are given too.
+    is ``p_ij N(x'; Phi_j x, Q_j)``, and the paths' model shares are given too. Per update, the
+    paths of each model draw their predecessors at once in one compiled pass over paths x
+    particles (:func:`_draw_predecessors`).
     """
     k_all = len(history)
     n = history[0].particles.shape[0]
     paths = np.empty((k_all, trajectories, n))
     labelled = getattr(history[-1], "labels", None) is not None
     path_models = np.zeros((k_all, trajectories), dtype=np.int64)
+    draw = _compiled_draw()
+    factors: dict[tuple[int, float], tuple[Array, Array]] = {}
 
-    def draw(logw: Array) -> Array:
-        p = np.exp(logw - logw.max(axis=-1, keepdims=True))
-        cum = np.cumsum(p, axis=-1)
-        u = rng.random(cum.shape[:-1]) * cum[..., -1]
-        return np.minimum((cum < u[..., None]).sum(axis=-1), cum.shape[-1] - 1)
+    def whiten(j: int, dt: float, jitter: Array | None) -> tuple[Array, Array]:
+        """Give ``L^-1 Phi_j`` and ``L^-1``, ``L`` the Cholesky factor of model j's move."""
+        if jitter is None and (j, dt) in factors:
+            return factors[j, dt]
+        phi = models[j].transition(dt)
+        cov = models[j].noise(dt) + (0.0 if jitter is None else phi @ jitter @ phi.T)
+        cov = 0.5 * (cov + cov.T) + 1e-6 * np.eye(n)  # a deterministic move stays drawable
+        inverse = np.linalg.inv(np.linalg.cholesky(cov))
+        out = (inverse @ phi, inverse)
+        if jitter is None:
+            factors[j, dt] = out
+        return out
 
     last = history[-1]
-    with np.errstate(divide="ignore"):
-        idx = draw(np.broadcast_to(np.log(last.weights), (trajectories, last.weights.size)))
+    cum = np.cumsum(last.weights)
+    idx = np.minimum(np.searchsorted(cum, rng.random(trajectories) * cum[-1]), cum.size - 1)
     paths[-1] = last.particles[:, idx].T
     if labelled:
         path_models[-1] = last.labels[idx]
@@ -109,22 +124,20 @@ def _backward_simulation(history: list, models: list[NearlyConstantVelocity],
         x = step.particles
         if step.centre is not None:
             x = step.shrink * x + ((1.0 - step.shrink) * step.centre)[:, None]
-        logw = np.empty((trajectories, x.shape[1]))
+        u = rng.random(trajectories)
+        pick = np.empty(trajectories, dtype=np.int64)
+        with np.errstate(divide="ignore"):
+            log_w = np.log(step.weights)
+            log_p = np.log(history[k + 1].transition) if labelled else None
         for j in np.unique(path_models[k + 1]):
-            to_j = path_models[k + 1] == j
-            phi = models[j].transition(dt)
-            cov = models[j].noise(dt) + (0.0 if step.jitter is None
-                                         else phi @ step.jitter @ phi.T)
-            cov = 0.5 * (cov + cov.T) + 1e-6 * np.eye(n)  # a deterministic move stays drawable
-            chol = np.linalg.cholesky(cov)
-            a = np.linalg.solve(chol, phi @ x).T           # (N, n) whitened predicted particles
-            b = np.linalg.solve(chol, paths[k + 1, to_j].T).T  # (M_j, n) whitened path states
-            d2 = (b * b).sum(axis=1)[:, None] + (a * a).sum(axis=1)[None, :] - 2.0 * b @ a.T
-            with np.errstate(divide="ignore"):
-                prior = np.log(step.weights) + (np.log(history[k + 1].transition[step.labels, j])
-                                                if labelled else 0.0)
-            logw[to_j] = prior[None, :] - 0.5 * d2
-        pick = draw(logw)
+            to_j = np.flatnonzero(path_models[k + 1] == j)
+            move, inverse = whiten(int(j), dt, step.jitter)
+            a = move @ x                              # (n, N) whitened predicted particles
+            b = paths[k + 1, to_j] @ inverse.T        # (M_j, n) whitened path states
+            prior = log_w if log_p is None else log_w + log_p[step.labels, j]
+            chosen = np.empty(to_j.size, dtype=np.int64)
+            draw(a, prior, b, u[to_j], chosen)
+            pick[to_j] = chosen
         paths[k] = x[:, pick].T if step.centre is None else step.particles[:, pick].T
         if labelled:
             path_models[k] = step.labels[pick]
@@ -134,6 +147,55 @@ def _backward_simulation(history: list, models: list[NearlyConstantVelocity],
     shares = None if not labelled else np.stack(
         [np.bincount(row, minlength=len(models)) / trajectories for row in path_models])
     return means, covs, shares
+
+
+#: A particle whose log backward weight is this far below a path's best adds less than
+#: e^-60 = 1e-26 of the best to the sum: below double precision, so it is not exponentiated.
+_NEGLIGIBLE = 60.0
+
+
+def _draw_predecessors(a: Array, prior: Array, b: Array, u: Array,
+                       out: IntArray) -> None:  # pragma: no cover - compiled
+    """Draw each path's predecessor: particle i with probability ~ exp(prior_i - |a_i - b_m|^2/2).
+
+    ``a`` (n, N) the whitened predicted particles, ``prior`` (N,) their log weights (with the
+    switch's), ``b`` (M, n) the whitened paths, ``u`` (M,) uniform draws; the inverse of each
+    path's cumulative weights at ``u`` into ``out`` (M,).
+    """
+    dim, n_p = a.shape
+    score = np.empty(n_p)
+    for m in range(b.shape[0]):
+        score[:] = prior
+        for c in range(dim):
+            bc = b[m, c]
+            for i in range(n_p):
+                e = a[c, i] - bc
+                score[i] -= 0.5 * e * e
+        top = score.max()
+        if top == -np.inf:  # no particle can move there: the weights alone
+            score[:] = prior
+            top = score.max()
+        total = 0.0
+        for i in range(n_p):
+            if score[i] > top - _NEGLIGIBLE:
+                total += math.exp(score[i] - top)
+            score[i] = total
+        target = u[m] * total
+        pick = n_p - 1
+        for i in range(n_p):
+            if score[i] >= target and score[i] > 0.0:
+                pick = i
+                break
+        out[m] = pick
+
+
+@functools.cache
+def _compiled_draw() -> Callable[..., None]:
+    """Give :func:`_draw_predecessors` compiled (numba is imported at the first use)."""
+    import numba
+
+    return cast(Callable[..., None],
+                numba.njit(cache=True, nogil=True, error_model="numpy")(_draw_predecessors))
 
 
 def _rts(track: Track, dynamics: NearlyConstantVelocity | None, lag: int | None

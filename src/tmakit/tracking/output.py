@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..bounds.pcrb import deterministic_pcrb, posterior_crb
 from ..data import MeasurementSet
 from ..filters import Track
+from ..filters.gaussian_sum import SumStep
 from .initiators import BatchStart, BearingStart
 from .tracker import start_record
 
@@ -32,13 +33,33 @@ def _clean(v: object) -> object:
     return v
 
 
-def track_dict(tr: Track) -> dict[str, object]:
+def _sums(tr: Track) -> list[dict[str, object]]:
+    """Give a Gaussian-sum track's kept sums as JSON rows, one per track row."""
+    history = tr.extra.history
+    if not isinstance(history, list) or not all(isinstance(h, SumStep) for h in history):
+        raise ValueError(f"the {tr.filter_name} track kept no Gaussian sums: run the gsf "
+                         "filter with history=True (settings={'history': True})")
+    steps = history[len(history) - len(tr):] if len(history) >= len(tr) else []
+    if len(steps) != len(tr) or not np.allclose([h.time for h in steps], tr.times):
+        raise ValueError("the kept Gaussian sums do not match the track's rows")
+    return [{"weights": h.weights.tolist(), "means": h.means.tolist(),
+             "covariances": h.covariances.tolist()} for h in steps]
+
+
+def track_dict(tr: Track, *, sums: bool = False) -> dict[str, object]:
     """Return the track as JSON-ready data.
 
     Parameters
     ----------
     tr : Track
         A track (from :func:`tmakit.track` or a filter's ``run``).
+    sums : bool, optional
+        Add a Gaussian-sum track's ``sums``: per row, the filtered sum's ``weights`` (M,),
+        ``means`` (M, n) (m, m/s) and ``covariances`` (M, n, n), M the components held then;
+        and, if the track was smoothed, ``smoothed_sums``, the smoothed sum per row in the same
+        shape (the final sum's components and weights; their moments are ``smoothed`` and
+        ``smoothed_covariance``). The track must have kept its sums
+        (``settings={"history": True}``).
 
     Returns
     -------
@@ -46,8 +67,13 @@ def track_dict(tr: Track) -> dict[str, object]:
         :meth:`Track.as_dict` with ``start``, ``q``, ``q_density``, the Gaussian sum's
         ``components``, an IMM filter's ``model_probabilities``, ``models`` and ``transition``,
         and a smoothed track's ``smoothed``, ``smoothed_std``, ``smoothed_covariance``,
-        ``smoother`` (and a multiple-model track's ``smoothed_model_probabilities``); NaN and
-        infinities as ``None``.
+        ``smoother`` (and a multiple-model track's ``smoothed_model_probabilities``); with
+        ``sums``, ``sums`` and ``smoothed_sums``; NaN and infinities as ``None``.
+
+    Raises
+    ------
+    ValueError
+        With ``sums``, if the track kept no Gaussian sums, or they do not match its rows.
     """
     data = tr.as_dict()
     data["start"] = tr.extra.start
@@ -67,6 +93,10 @@ def track_dict(tr: Track) -> dict[str, object]:
         data["smoother"] = sm.extra.options.get("smoother")
         if sm.extra.model_probabilities is not None:
             data["smoothed_model_probabilities"] = sm.extra.model_probabilities
+    if sums:
+        data["sums"] = _sums(tr)
+        if sm is not None:
+            data["smoothed_sums"] = _sums(sm)
     return _clean(data)  # type: ignore[return-value]
 
 
