@@ -88,3 +88,12 @@ def test_wrap_angle_keeps_angles_in_the_interval_and_shifts_by_exact_turns() -> 
     assert float(wrap_angle(-np.pi)) == np.pi
     assert float(wrap_angle(3 * np.pi)) == float(wrap_angle(np.array([3 * np.pi]))[0])
     assert float(wrap_angle(1e-300)) == 1e-300
+
+
+def test_wrap_angle_wraps_every_layout_of_a_stack() -> None:
+    # A stack of residuals laid out column-major (as ObservationModel.residuals gives for
+    # several parameter vectors) was returned unwrapped: the flat view was a copy.
+    angles = np.array([[6.2, 0.1, -6.0], [3.5, -3.5, 7.0]])
+    for layout in (angles, np.asfortranarray(angles), angles.T.copy().T, angles[:, ::-1]):
+        np.testing.assert_array_equal(wrap_angle(layout), [wrap_angle(a) for a in layout])
+        assert np.all(np.abs(wrap_angle(layout)) <= np.pi)

@@ -18,10 +18,10 @@ TWO_PI = 2.0 * np.pi
 
 def wrap_angle(angle: ArrayLike) -> NDArray[np.float64]:
     """Wrap angles to the interval (-pi, pi]."""
-    out = np.array(angle, dtype=float)
+    out = np.array(angle, dtype=float, order="C")
     if out.ndim == 0:
         return np.array(_wrap_moved(out.reshape(1))[0])
-    flat = out.reshape(-1)  # a view: out is a new contiguous array
+    flat = out.reshape(-1)  # a view: out is a new C-contiguous array (not so from order "K")
     moved = np.flatnonzero((flat > np.pi) | (flat <= -np.pi))
     if moved.size:
         flat[moved] = _wrap_moved(flat[moved])
