@@ -28,7 +28,7 @@ def run(name: str, seeds: range, widen: bool) -> dict[str, np.ndarray]:
     scn = load_scenario(name)
     keep = initiators.likelihood_covariance
     if not widen:
-        initiators.likelihood_covariance = lambda result, *a, **k: result.covariance
+        initiators.likelihood_covariance = lambda result, *a, **k: (result.covariance, ())
     out: dict[str, list[float]] = {k: [] for k in ("nees", "pos", "t0", "cpu", "failed", "seed")}
     try:
         for s in seeds:

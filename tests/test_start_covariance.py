@@ -1,10 +1,14 @@
 """A batch start's covariance covers its profile likelihood (short bearings-only windows)."""
 
 import numpy as np
+import pytest
+from scipy.optimize import brentq, least_squares
 from scipy.stats import chi2
 
 import tmakit as tk
+from tmakit.observation import NoiseModel, ObservationModel
 from tmakit.scenario.files import load_scenario
+from tmakit.tracking import start_record
 from tmakit.tracking.initiators import LIKELIHOOD_TOLERANCE, likelihood_covariance, search_window
 
 
@@ -28,9 +32,89 @@ def test_likelihood_covariance_only_widens_along_the_profile() -> None:
     w = search_window(meas, 2).chosen
     rows = meas.take(meas.time <= w.time + 1e-9)
     cov = w.estimate.covariance
-    wide = likelihood_covariance(w.estimate, rows, w.time, 2)
+    wide, widened = likelihood_covariance(w.estimate, rows, w.time, 2)
     assert np.all(np.linalg.eigvalsh(wide - cov) > -1e-9 * np.abs(cov).max())
-    # widened (this short window's far side is flat in range), by a term of rank 2 at most
+    # widened (this short window's far side is flat in range), one rank-one term per end
     major = [np.sqrt(np.linalg.eigvalsh(c[:2, :2])[-1]) for c in (cov, wide)]
     assert major[1] > LIKELIHOOD_TOLERANCE * major[0]
-    assert np.linalg.matrix_rank(wide - cov, tol=1e-9 * np.abs(wide).max()) <= 2
+    assert widened and all(x.factor > LIKELIHOOD_TOLERANCE for x in widened)
+    assert np.linalg.matrix_rank(wide - cov, tol=1e-9 * np.abs(wide).max()) <= len(widened)
+
+
+def brute_force_end(meas, w, direction: np.ndarray, quantile: float) -> np.ndarray:
+    """The profile's end up ``direction @ position``: every point re-fitted by scipy to 1e-12."""
+    res = w.estimate
+    rows = meas.take(meas.time <= w.time + 1e-9)
+    obs, noise = ObservationModel(rows, res.motion), NoiseModel(rows)
+    theta = res.estimate
+    row = direction @ res.motion.jacobian(theta, np.array([w.time]))[0][:2]
+    free = np.linalg.svd(row[None])[2][1:].T
+    up = row / (row @ row)
+
+    def cost(x: np.ndarray) -> float:
+        r = noise.whiten(obs.residuals(x))
+        return float(r @ r)
+
+    limit = cost(theta) + quantile
+    guess = np.zeros(free.shape[1])
+
+    def profile(t: float) -> tuple[float, np.ndarray]:
+        nonlocal guess
+        fit = least_squares(lambda u: noise.whiten(obs.residuals(theta + t * up + free @ u)),
+                            guess, x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-12)
+        guess = fit.x
+        return 2 * fit.cost - limit, theta + t * up + free @ fit.x
+
+    sigma = np.sqrt(row @ res.covariance @ row)
+    t, step = 0.0, 0.5 * sigma
+    while profile(t + step)[0] < 0:  # walk out in half sigmas to the first crossing
+        t += step
+    end = brentq(lambda s: profile(s)[0], t, t + step, xtol=1e-6 * sigma)
+    return profile(end)[1] - theta
+
+
+def test_profile_end_as_a_brute_force_profile_finds_it() -> None:
+    # bearings-only-2d seed 3: the first window's range profile is flat on the far side; the
+    # end found in a few Gauss-Newton steps must be the end of the fully re-fitted profile.
+    meas = load_scenario("bearings-only-2d").simulate(rng=3)
+    w = search_window(meas, 2).chosen
+    rows = meas.take(meas.time <= w.time + 1e-9)
+    _, widened = likelihood_covariance(w.estimate, rows, w.time, 2)
+    first = widened[0]
+    assert first.axis == "position"
+    quantile = chi2.ppf(0.95, 4)
+    d = brute_force_end(meas, w, np.array([first.direction["x"], first.direction["y"]]),
+                        quantile)
+    factor = np.sqrt(d @ np.linalg.solve(w.estimate.covariance, d) / quantile)
+    assert first.factor == pytest.approx(factor, rel=0.02)
+
+
+def test_the_track_says_whether_and_where_its_start_was_widened(tmp_path) -> None:
+    meas = load_scenario("bearings-only-2d").simulate(rng=3)
+    short = tk.track(meas, "ekf")
+    widened = short.extra.start["widened"]
+    assert widened == [x.as_dict() for x in start_record(short).widened]
+    assert widened and {x["axis"] for x in widened} <= {"position", "velocity"}
+    for x in widened:
+        assert np.linalg.norm(list(x["direction"].values())) == pytest.approx(1.0)
+        assert x["factor"] > LIKELIHOOD_TOLERANCE
+    # the start covariance is the window's widened by exactly those ends
+    record = start_record(short)
+    assert np.sqrt(np.linalg.eigvalsh(record.covariance[:2, :2])[-1]) > np.sqrt(
+        np.linalg.eigvalsh(record.estimate.covariance[:2, :2])[-1])
+    # a window long enough for a Gaussian likelihood keeps the linearised covariance
+    long = tk.track(meas, "ekf", init_window=450)
+    assert long.extra.start["widened"] == []
+    record = start_record(long)
+    np.testing.assert_allclose(record.covariance, record.estimate.covariance)
+    # and the command says it
+    path = tmp_path / "bo.csv"
+    tk.write_measurements(meas, path)
+    from typer.testing import CliRunner
+
+    from tmakit.cli import app
+
+    out = CliRunner().invoke(app, ["track", str(path), "--filter", "ekf"])
+    assert out.exit_code == 0, out.output
+    assert "widened to the window's profile likelihood" in " ".join(out.output.split())
+    assert f"position axis x{widened[0]['factor']:.3g}" in " ".join(out.output.split())

@@ -409,6 +409,10 @@ def start_sentence(tr: Any) -> str:
         text += ("; nuisance held at " + ", ".join(
             f"{k} = {v['value']:.10g} (std {v['std']:.3g})" for k, v in s["nuisance"].items())
             + " (the filter does not carry their uncertainty)")
+    if s.get("widened"):
+        text += ("; its covariance widened to the window's profile likelihood (the linearised "
+                 "one is overconfident) along " + ", ".join(
+                     f"the {w['axis']} axis x{w['factor']:.3g}" for w in s["widened"]))
     check = s.get("confirmation")
     if check and check["dof"]:
         text += (f"; confirmed by the next {check['updates']} updates (NIS {check['nis']:.1f} "

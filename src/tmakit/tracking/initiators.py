@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
@@ -45,7 +45,7 @@ __all__ = ["CONFIRM_P_VALUE", "DEFAULT_MAX_RELATIVE_STD", "HELD_NUISANCE_CHI2",
            "BatchInitiator",
            "BatchStart", "BearingInitiator", "BearingStart", "Confirmation", "Initiation",
            "Initiator", "PriorInitiator", "PriorStart", "Rejection", "StartRecord",
-           "WindowChoice", "WindowEstimate", "likelihood_covariance", "search_window"]
+           "Widening", "WindowChoice", "WindowEstimate", "likelihood_covariance", "search_window"]
 
 #: Default start quality: the position's largest 1-sigma semi-axis over the range.
 DEFAULT_MAX_RELATIVE_STD = 0.25
@@ -69,6 +69,15 @@ MAX_PROFILE_WIDTH = 100.0
 #: ... and its covariance widened when an end of the profile lies outside its 95 % ellipsoid by
 #: more than this factor.
 LIKELIHOOD_TOLERANCE = 1.1
+# The profile's end points (:func:`_profile_ends`): to this fraction of their distance (and of a
+# quantile in chi-square), a step going up at most this many times as far, refused when it lands
+# beyond the limit by more than this many quantiles (an end given up after so many refusals in
+# a row), and so many steps at most.
+_PROFILE_ACCURACY = 0.01
+_PROFILE_GROWTH = 4.0
+_PROFILE_SLACK = 0.5
+_PROFILE_HALVINGS = 10
+_PROFILE_ITERATIONS = 40
 
 
 @dataclass(frozen=True)
@@ -187,6 +196,37 @@ class PriorStart:
 
 
 @dataclass(frozen=True)
+class Widening:
+    """One end of a batch start's profile likelihood that widened its covariance.
+
+    Parameters
+    ----------
+    axis : str
+        ``"position"`` or ``"velocity"``: the major axis of that part of the fit's covariance.
+    direction : dict of str to float
+        The side of the end: the axis as a unit vector by state name (``x, y, (z)`` or
+        ``vx, vy, (vz)``).
+    factor : float
+        How far outside the 95 % ellipsoid the end lay (its Mahalanobis distance over the
+        ellipsoid's): the covariance's standard deviation along the end grew by this factor.
+    """
+
+    axis: str
+    direction: dict[str, float]
+    factor: float
+
+    def as_dict(self) -> dict[str, Any]:
+        """Return the JSON form.
+
+        Returns
+        -------
+        dict
+            ``axis``, ``direction`` (unit vector by state name), ``factor``.
+        """
+        return {"axis": self.axis, "direction": dict(self.direction), "factor": self.factor}
+
+
+@dataclass(frozen=True)
 class BatchStart:
     """A start from a batch estimate over the first ``window`` measurement times.
 
@@ -217,6 +257,9 @@ class BatchStart:
     held_nuisance : dict of str to float
         Per nuisance value the filter holds fixed at the estimate: the chi-square that a
         one-sigma error in it adds over the rows after the start.
+    widened : tuple of Widening
+        The ends of the estimate's profile likelihood that widened its covariance into
+        ``covariance`` (:func:`likelihood_covariance`; empty: the linearised covariance).
     """
 
     method: ClassVar[str] = "batch"
@@ -235,6 +278,7 @@ class BatchStart:
     confirmation: Confirmation | None = None
     rejected: tuple[Rejection, ...] = field(default_factory=tuple)
     held_nuisance: dict[str, float] = field(default_factory=dict)
+    widened: tuple[Widening, ...] = ()
 
     def held_nuisance_note(self) -> str:
         """Say which held nuisance values bias the track beyond its covariances.
@@ -265,7 +309,9 @@ class BatchStart:
             ``method`` (``"batch"``), ``window``, ``rows``, ``time`` (s), ``status``, ``chi2``,
             ``dof``, ``relative_position_std``, ``max_relative_std``, ``windows_tried``,
             ``nuisance`` (value and std by name), ``held_nuisance`` (chi-square by name),
-            ``held_nuisance_note``, ``confirmation`` and ``rejected``.
+            ``held_nuisance_note``, ``widened`` (the profile-likelihood ends that widened the
+            covariance: ``axis``, ``direction``, ``factor``), ``confirmation`` and
+            ``rejected``.
         """
         est = self.estimate
         out: dict[str, Any] = {
@@ -283,6 +329,7 @@ class BatchStart:
                          for name, (v, sd) in est.nuisance.items()},
             "held_nuisance": dict(self.held_nuisance),
             "held_nuisance_note": self.held_nuisance_note(),
+            "widened": [w.as_dict() for w in self.widened],
         }
         if self.confirmation is not None:
             out["confirmation"] = self.confirmation.as_dict()
@@ -410,17 +457,19 @@ def _relative_std(result: EstimateResult, rows: MeasurementSet, time: float, dim
 
 
 def likelihood_covariance(result: EstimateResult, rows: MeasurementSet, time: float, dim: int,
-                          options: Mapping[str, Mapping[str, object]] | None = None) -> Array:
+                          options: Mapping[str, Mapping[str, object]] | None = None
+                          ) -> tuple[Array, tuple[Widening, ...]]:
     """Give the fit's covariance widened to its profile likelihood in position and velocity.
 
-    The profile likelihood of ``rows`` (the other parameters re-fitted by Gauss-Newton at each
-    point, the nuisance held) is followed along the major axis of the position's covariance at
-    ``time``, then of the velocity's, on either side out to where its chi-square has risen by
-    the 95 % chi-square quantile for all ``p`` parameters (the boundary of the likelihood
-    region, Venzon & Moolgavkar 1988).  Where that end point lies outside the covariance's
-    95 % ellipsoid by more than ``LIKELIHOOD_TOLERANCE`` times, the covariance is widened by a
-    rank-one term along it until it lies on the ellipsoid: the same covariance for a Gaussian
-    likelihood.  A linearised (Cramer-Rao type) covariance is overconfident where the
+    The profile likelihood of ``rows`` (the other parameters re-fitted, the nuisance held) is
+    followed along the major axis of the position's covariance at ``time`` and of the
+    velocity's, on either side, out to where its chi-square has risen by the 95 % chi-square
+    quantile for all ``p`` parameters: the end points of the likelihood region (Venzon &
+    Moolgavkar 1988), found by Gauss-Newton steps on their two conditions (the chi-square at
+    that limit, stationary in the other parameters).  Each end point outside the 95 % ellipsoid
+    of the covariance (as widened so far) by more than ``LIKELIHOOD_TOLERANCE`` times widens it
+    by a rank-one term along it until it lies on the ellipsoid: a Gaussian likelihood leaves the
+    covariance as it is.  A linearised (Cramer-Rao type) covariance is overconfident where the
     likelihood is far from Gaussian, as in range on a short bearings-only window (Aidala &
     Hammel 1983).
 
@@ -439,87 +488,156 @@ def likelihood_covariance(result: EstimateResult, rows: MeasurementSet, time: fl
 
     Returns
     -------
-    ndarray
-        The covariance of ``result.estimate``, ``(p, p)``: ``result.covariance`` when the
-        profile interval lies inside the linearised one.
+    covariance : ndarray
+        The covariance of ``result.estimate``, ``(p, p)``: ``result.covariance`` when every end
+        point lies within the tolerance of its ellipsoid (or the covariance is not positive
+        definite).
+    widened : tuple of Widening
+        The end points that widened it, in the order applied.
     """
     theta, cov = result.estimate, result.covariance
-    if not np.all(np.isfinite(cov)):
-        return cov
+    try:
+        scale = np.linalg.cholesky(cov)  # theta = estimate + scale @ z: z has covariance I
+    except np.linalg.LinAlgError:
+        return cov, ()
+    if not np.all(np.isfinite(scale)):
+        return cov, ()
+    states = result.motion.jacobian(theta, np.array([time]))[0]
+    sides: list[tuple[str, dict[str, float]]] = []
+    ups = []
+    for axis, offset, names in (("position", 0, ("x", "y", "z")),
+                                ("velocity", 3, ("vx", "vy", "vz"))):
+        jac = states[offset:offset + dim] @ scale
+        major = np.linalg.eigh(jac @ jac.T)[1][:, -1]
+        for sign in (1.0, -1.0):
+            sides.append((axis, dict(zip(names[:dim], (sign * major).tolist(), strict=True))))
+            ups.append(sign * major @ jac / np.linalg.norm(major @ jac))
+    quantile = float(chi2.ppf(0.95, len(theta)))
     obs = ObservationModel(rows, result.motion, options)
-    noise = NoiseModel(rows)
     nu = (obs.nuisance_vector({n: v for n, (v, _) in result.nuisance.items()})
           if obs.n_nuisance else None)
-
-    def cost_at(point: Array) -> float:
-        return float(np.sum(noise.whiten(obs.residuals(point, nu)) ** 2))
-
-    quantile = float(chi2.ppf(0.95, len(theta)))
-    base = cost_at(theta)
-    states = result.motion.jacobian(theta, np.array([time]))[0]
-    wide = cov
-    for block in (range(dim), range(3, 3 + dim)):  # the position's, then the velocity's axis
-        jac = states[list(block)]
-        axis = np.linalg.eigh(jac @ wide @ jac.T)[1][:, -1]
-        row = axis @ jac  # the profiled combination of theta
-        if not row @ wide @ row > 0:
-            continue
-        for sign in (1.0, -1.0):
-            d = _profile_end(theta, wide, sign * row, cost_at, obs, noise, nu, base + quantile)
-            m = float(d @ np.linalg.pinv(wide, hermitian=True) @ d)
-            if np.isfinite(m) and m > quantile * LIKELIHOOD_TOLERANCE ** 2:
-                wider = wide + (m / quantile - 1.0) / m * np.outer(d, d)
-                if np.all(np.linalg.eigvalsh(wider) > 0):  # (not lost to rounding)
-                    wide = wider
-    return wide
+    ends = _profile_ends(lambda z: theta + z @ scale.T, scale, np.array(ups), obs,
+                         NoiseModel(rows), nu, quantile)
+    wide, widened = np.eye(len(theta)), []
+    for (axis, direction), z in zip(sides, ends, strict=True):
+        m = float(z @ np.linalg.solve(wide, z)) if np.all(np.isfinite(z)) else np.nan
+        if np.isfinite(m) and m > quantile * LIKELIHOOD_TOLERANCE ** 2:
+            wide = wide + (m / quantile - 1.0) / m * np.outer(z, z)
+            widened.append(Widening(axis, direction, math.sqrt(m / quantile)))
+    if not widened:
+        return cov, ()
+    wide = scale @ wide @ scale.T
+    return (wide + wide.T) / 2, tuple(widened)
 
 
-def _profile_end(theta: Array, cov: Array, row: Array, cost_at: Any, obs: ObservationModel,
-                 noise: NoiseModel, nu: Array | None, limit: float) -> Array:
-    """Give the step from ``theta`` up ``row @ theta`` to where its profile cost hits ``limit``."""
-    sigma = float(np.sqrt(max(float(row @ cov @ row), 0.0)))
-    if not (np.isfinite(sigma) and sigma > 0):
-        return np.zeros_like(theta)
-    path = cov @ row / sigma  # one linearised sigma up ``row @ theta``
-    free = np.linalg.svd(row[None])[2][1:].T  # (p, p - 1): directions that keep it
+def _profile_ends(point: Callable[[Array], Array], scale: Array, dirs: Array,
+                  obs: ObservationModel, noise: NoiseModel, nu: Array | None, quantile: float
+                  ) -> Array:
+    """Give the end points ``(k, p)`` of the profiles up the unit ``dirs[i] @ z``.
 
-    def refit(point: Array) -> tuple[Array, float]:
-        """Gauss-Newton on the free directions, a step kept only when it lowers the cost."""
-        cost = cost_at(point)
-        for _ in range(6):
-            r = noise.whiten(obs.residuals(point, nu))
-            a = noise.whiten(obs.jacobian(point, nu)[0] @ free, axis=-2)
-            if not (np.all(np.isfinite(r)) and np.all(np.isfinite(a))):
-                break
-            step = free @ np.linalg.lstsq(a, r, rcond=None)[0]
-            for _ in range(4):
-                trial = cost_at(point + step)
-                if trial < cost:
-                    point, cost = point + step, trial
-                    break
-                step = step / 2
-            else:
-                break
-        return point, cost
+    ``point(z)`` is theta; in ``z`` the fit's covariance is the identity.  The ends are iterated
+    from ``z = 0`` together (one evaluation of the residuals and one of the Jacobians per step,
+    for all of them): a Gauss-Newton step to where the linearised chi-square, minimised over the
+    directions that keep ``dirs[i] @ z``, reaches the limit (:func:`_end_steps`), at most
+    ``_PROFILE_GROWTH`` times as far up as before and at most ``MAX_PROFILE_WIDTH`` linearised
+    ends up, within a trust radius (Nocedal & Wright 2006, ch. 4): a step is refused when it
+    lands beyond the limit by more than ``_PROFILE_SLACK`` quantiles (from beyond it, when it
+    does not lower the chi-square), and the radius halves; it grows after a step whose
+    chi-square the model foresaw.
+    """
+    k, p = dirs.shape
 
-    def profile(point: Array, c: float) -> tuple[Array, float]:
-        return refit(point + ((theta - point) @ row + c * sigma) / sigma * path)
+    def residuals(z: Array) -> Array:
+        return np.asarray(noise.whiten(obs.residuals(point(z), nu)))
 
-    inside, c_in, c_out = theta, 0.0, np.inf
-    for c in np.geomspace(1.0, MAX_PROFILE_WIDTH, 25) * np.sqrt(limit - cost_at(theta)):
-        point, cost = profile(inside, float(c))
-        if not (np.isfinite(cost) and cost < limit):
-            c_out = float(c)
+    def jacobians(z: Array) -> Array:  # of the whitened residuals, in z
+        return -np.asarray(noise.whiten(obs.jacobian(point(z), nu)[0] @ scale, axis=-2))
+
+    res0 = residuals(np.zeros(p))
+    limit = float(res0 @ res0) + quantile
+    cap = (1 - 1e-9) * MAX_PROFILE_WIDTH * math.sqrt(quantile)
+    z = np.zeros((k, p))
+    res, jac = np.repeat(res0[None], k, axis=0), np.repeat(jacobians(z[0])[None], k, axis=0)
+    cost = np.full(k, limit - quantile)
+    radius = np.full(k, _PROFILE_GROWTH * math.sqrt(quantile))
+    finished = np.zeros(k, dtype=bool)
+    halved = np.zeros(k, dtype=int)
+    for _ in range(_PROFILE_ITERATIONS):
+        steps, done, model = _end_steps(res, jac, dirs, z, cost, limit, quantile, radius)
+        done &= ~finished
+        z[done] += steps[done]
+        finished |= done | ((np.einsum("kp,kp->k", z, dirs) >= cap) & (cost < limit))
+        if finished.all():
             break
-        inside, c_in = point, float(c)
-    for _ in range(6 if np.isfinite(c_out) else 0):  # bisect the crossing
-        mid = (c_in + c_out) / 2
-        point, cost = profile(inside, mid)
-        if np.isfinite(cost) and cost < limit:
-            inside, c_in = point, mid
-        else:
-            c_out = mid
-    return inside - theta
+        steps[finished] = 0.0
+        trial = residuals(z + steps)
+        new = np.einsum("kn,kn->k", trial, trial)
+        ok = ~finished & np.isfinite(new) & np.where(
+            cost <= limit, new <= limit + _PROFILE_SLACK * quantile, new < cost)
+        length = np.sqrt(np.einsum("kp,kp->k", steps, steps))
+        # the radius grows after a step the model foresaw, and halves after a refused one
+        foreseen = np.abs(new - model) <= _PROFILE_SLACK * quantile
+        radius = np.where(ok, np.where(foreseen, _PROFILE_GROWTH, 1.0) * length, length / 2)
+        halved = np.where(ok, 0, halved + 1)
+        finished |= halved >= _PROFILE_HALVINGS
+        if ok.any():
+            z[ok] += steps[ok]
+            res[ok], cost[ok] = trial[ok], new[ok]
+            jac[ok] = jacobians(z[ok])
+    return z
+
+
+def _end_steps(res: Array, jac: Array, dirs: Array, z: Array, cost: Array, limit: float,
+               quantile: float, radius: Array) -> tuple[Array, Array, Array]:
+    """Give the Gauss-Newton steps ``(k, p)`` to the profiles' ends, which are done, their models.
+
+    With ``H = J'J`` and ``g = J'r``, the step that moves ``a`` up ``v`` and minimises the
+    model over the rest is ``fix + a * tangent``: ``fix = -H^-1 g + H^-1 v (v'H^-1 g) / k``,
+    ``tangent = H^-1 v / k``, ``k = v'H^-1 v``; its model chi-square is the model's minimum
+    plus ``(a + v'H^-1 g)**2 / k``.  An end is done when its chi-square is within
+    ``_PROFILE_ACCURACY`` quantiles of the limit and its step below that fraction of its
+    distance, or when it is near the limit and, a step's length further, still inside the
+    tolerance (it widens nothing).
+    """
+    grad = np.einsum("knp,kn->kp", jac, res)
+    rhs = np.stack([grad, dirs], axis=-1)
+    hess = np.einsum("knp,knq->kpq", jac, jac)
+    try:
+        s = np.linalg.solve(hess, rhs)
+    except np.linalg.LinAlgError:
+        s = np.linalg.pinv(hess, hermitian=True) @ rhs
+    vs0, kappa = np.einsum("kp,kpj->jk", dirs, s)
+    stuck = ~(kappa > 1e-12)  # (H singular up v: no step)
+    kappa[stuck] = 1.0
+    first = math.sqrt(quantile)
+    up = np.einsum("kp,kp->k", z, dirs)
+    reach = np.minimum(_PROFILE_GROWTH * np.maximum(up, first), MAX_PROFILE_WIDTH * first)
+    lowest = cost - np.einsum("kp,kp->k", grad, s[..., 0])
+    a = np.clip(np.sqrt(np.maximum(limit - lowest, 0.0) * kappa) - vs0 + up,
+                up / _PROFILE_GROWTH, reach) - up
+    tangent = s[..., 1] / kappa[:, None]
+    fix = tangent * vs0[:, None] - s[..., 0]
+    steps = fix + a[:, None] * tangent
+    length = np.sqrt(np.einsum("kp,kp->k", steps, steps))
+    far = np.sqrt(np.einsum("kp,kp->k", z, z))
+    gap = np.abs(cost - limit)
+    stuck |= ~np.isfinite(length)
+    done = stuck | ((gap <= _PROFILE_ACCURACY * quantile) & (length <= _PROFILE_ACCURACY * far)) | (
+        (gap <= 0.25 * quantile) & (far + 2 * length <= LIKELIHOOD_TOLERANCE * first))
+    steps[stuck] = 0.0
+    cut = ~stuck & (length > radius)
+    if cut.any():  # from inside the limit the fix first, then as far up as the radius allows
+        fix, tangent, a, steps_cut = fix[cut], tangent[cut], a[cut], steps[cut]
+        r2, fix2 = radius[cut] ** 2, np.maximum(np.einsum("kp,kp->k", fix, fix), 1e-300)
+        t2, ft = np.einsum("kp,kp->k", tangent, tangent), np.einsum("kp,kp->k", fix, tangent)
+        room = np.sqrt(np.maximum(ft * ft - t2 * (fix2 - r2), 0.0))
+        a = np.where(fix2 >= r2, 0.0, (np.sign(a) * room - ft) / t2)
+        inner = fix * np.minimum(1.0, np.sqrt(r2 / fix2))[:, None] + a[:, None] * tangent
+        outer = steps_cut * (radius[cut] / length[cut])[:, None]  # both parts lower the cost
+        steps[cut] = np.where((cost[cut] <= limit)[:, None], inner, outer)
+    model = (cost + 2 * np.einsum("kp,kp->k", grad, steps)
+             + np.einsum("kp,kpq,kq->k", steps, hess, steps))
+    return steps, done, model
 
 
 class _Windows:
@@ -953,8 +1071,8 @@ class BatchInitiator(Initiator):
             w = found.chosen
             assert w.estimate is not None
             rows = meas.take(meas.time <= w.time + 1e-9)
-            wide = likelihood_covariance(w.estimate, rows, w.time, setup.dim,
-                                         setup.options or None)
+            wide, widened = likelihood_covariance(w.estimate, rows, w.time, setup.dim,
+                                                  setup.options or None)
             filt = setup.from_estimate(replace(w.estimate, covariance=wide,
                                                std=np.sqrt(np.diag(wide))), w.time)
             mean, cov, nuisance = filt.state, filt.covariance, dict(filt.nuisance)
@@ -970,7 +1088,7 @@ class BatchInitiator(Initiator):
                            w.window, w.rows, float(w.relative_position_std),
                            None if self.init_window is not None else self.max_relative_std,
                            found.windows_tried, check, tuple(rejected),
-                           _held_nuisance(w.estimate, rest, setup.options))
+                           _held_nuisance(w.estimate, rest, setup.options), widened)
         return Initiation(start, _prepend(after, w.time, mean, cov, setup.state_names))
 
 
