@@ -25,7 +25,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from ..batch import estimate
 from ..batch.ml import plausible_chi2
@@ -496,8 +496,8 @@ def likelihood_covariance(result: EstimateResult, rows: MeasurementSet, time: fl
         The end points that widened it, in the order applied.
     """
     theta, cov = result.estimate, result.covariance
-    try:
-        scale = np.linalg.cholesky(cov)  # theta = estimate + scale @ z: z has covariance I
+    try:  # theta = estimate + scale @ z: z has the covariance I
+        scale = np.asarray(np.linalg.cholesky(cov), dtype=np.float64)
     except np.linalg.LinAlgError:
         return cov, ()
     if not np.all(np.isfinite(scale)):
@@ -588,7 +588,7 @@ def _profile_ends(point: Callable[[Array], Array], scale: Array, dirs: Array,
 
 
 def _end_steps(res: Array, jac: Array, dirs: Array, z: Array, cost: Array, limit: float,
-               quantile: float, radius: Array) -> tuple[Array, Array, Array]:
+               quantile: float, radius: Array) -> tuple[Array, NDArray[np.bool_], Array]:
     """Give the Gauss-Newton steps ``(k, p)`` to the profiles' ends, which are done, their models.
 
     With ``H = J'J`` and ``g = J'r``, the step that moves ``a`` up ``v`` and minimises the
