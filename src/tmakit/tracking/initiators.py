@@ -518,16 +518,16 @@ def likelihood_covariance(result: EstimateResult, rows: MeasurementSet, time: fl
           if obs.n_nuisance else None)
     ends = _profile_ends(lambda z: theta + z @ scale.T, scale, np.array(ups), obs,
                          NoiseModel(rows), nu, quantile)
-    wide, widened = np.eye(len(theta)), []
+    wide_z, wide, widened = np.eye(len(theta)), cov, []
     for (axis, direction), z in zip(sides, ends, strict=True):
-        m = float(z @ np.linalg.solve(wide, z)) if np.all(np.isfinite(z)) else np.nan
+        m = float(z @ np.linalg.solve(wide_z, z)) if np.all(np.isfinite(z)) else np.nan
         if np.isfinite(m) and m > quantile * LIKELIHOOD_TOLERANCE ** 2:
-            wide = wide + (m / quantile - 1.0) / m * np.outer(z, z)
-            widened.append(Widening(axis, direction, math.sqrt(m / quantile)))
-    if not widened:
-        return cov, ()
-    wide = scale @ wide @ scale.T
-    return (wide + wide.T) / 2, tuple(widened)
+            wider_z = wide_z + (m / quantile - 1.0) / m * np.outer(z, z)
+            wider = scale @ wider_z @ scale.T
+            if np.all(np.linalg.eigvalsh(wider) > 0):  # (not lost to rounding)
+                wide_z, wide = wider_z, (wider + wider.T) / 2
+                widened.append(Widening(axis, direction, math.sqrt(m / quantile)))
+    return wide, tuple(widened)
 
 
 def _profile_ends(point: Callable[[Array], Array], scale: Array, dirs: Array,
