@@ -198,10 +198,12 @@ def test_stone_soup_ekf_tracker_started_by_the_batch_estimate():
                                                                truth[4]]
     nees = err @ np.linalg.solve(np.asarray(track.state.covar, float), err)
     assert nees < 18.47  # chi-square(4) 99.9 % quantile
-    # and where tmakit's own EKF (q = 0 too, its own batch start) ends: within 0.05 std
+    # and where tmakit's own EKF (q = 0 too, its own batch start) ends: within 0.1 std (its
+    # start covariance is widened to the window's profile likelihood, position x1.89 and
+    # velocity x1.11 here, Stone Soup's is the fit's linearised one: 0.06 std apart at the end)
     own = tk.track(meas, "ekf", q=0.0)
     ss = np.asarray(track.state.state_vector, float)[[0, 2, 1, 3], 0]
-    assert np.all(np.abs(ss - own.states[-1]) < 0.05 * own.std[-1])
+    assert np.all(np.abs(ss - own.states[-1]) < 0.1 * own.std[-1])
 
 
 def test_log_likelihood_of_many_states_is_the_wrapped_gaussian():
