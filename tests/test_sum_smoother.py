@@ -136,17 +136,24 @@ def test_sum_smoother_beats_the_filter_at_every_step_and_holds_the_truth(moderat
     assert np.all(np.abs(rms["sum"] / rms["moments"] - 1) <= 0.1)
 
 
-def test_command_smooths_the_sum_per_component(tmp_path):
+def track_moderate(tmp_path, *args):
+    """``tma track`` of moderate run 7 with ``args``; the runner's result."""
     path = tmp_path / "moderate.csv"
     tk.write_measurements(moderate_run(7)[0], path)
-    out = CliRunner().invoke(app, ["track", str(path), "--filter", "gsf", "--q-density", "9e-6",
-                                   "--range-prior", "499:10990", "--speed-prior", "5.14",
-                                   "--lag", "4", "--json"])
+    return CliRunner().invoke(app, ["track", str(path), *args]), path
+
+
+#: The first-bearing Gaussian sum on the moderate scenario, as the benchmark runs it.
+GSF = ["--filter", "gsf", "--q-density", "9e-6", "--range-prior", "499:10990",
+       "--speed-prior", "5.14"]
+
+
+def test_command_smooths_the_sum_per_component(tmp_path):
+    out, _ = track_moderate(tmp_path, *GSF, "--lag", "4", "--json")
     assert out.exit_code == 0, out.output
     data = json.loads(out.output)
     assert data["smoother"] == "gaussian-sum fixed-lag 4"
     assert len(data["smoothed"]) == len(data["estimate"])
-
 
 
 def moments(sums):
@@ -163,11 +170,7 @@ def moments(sums):
 def test_command_gives_the_filtered_and_smoothed_sums(tmp_path):
     """``--sums`` puts each row's filtered and smoothed Gaussian sum in the JSON: their moment
     match is the reported estimate and smoothed track, with their covariances."""
-    path = tmp_path / "moderate.csv"
-    tk.write_measurements(moderate_run(7)[0], path)
-    out = CliRunner().invoke(app, ["track", str(path), "--filter", "gsf", "--q-density", "9e-6",
-                                   "--range-prior", "499:10990", "--speed-prior", "5.14",
-                                   "--smooth", "--sums", "--json"])
+    out, path = track_moderate(tmp_path, *GSF, "--smooth", "--sums", "--json")
     assert out.exit_code == 0, out.output
     data = json.loads(out.output)
     rows = len(data["time"])
@@ -191,10 +194,9 @@ def test_command_gives_the_filtered_and_smoothed_sums(tmp_path):
     (["--filter", "gsf", "--sums"], "give --json"),
 ])
 def test_command_refuses_sums_without_a_sum_or_json(tmp_path, args, words):
-    path = tmp_path / "moderate.csv"
-    tk.write_measurements(moderate_run(7)[0], path)
-    out = CliRunner().invoke(app, ["track", str(path), *args])
+    out, _ = track_moderate(tmp_path, *args)
     assert out.exit_code == 2 and words in out.output, out.output
+
 
 def test_three_d_sums_smooth_through_the_general_path():
     """Bearings and elevations in 3-D take the Python path; its lineage smooths the same way:
