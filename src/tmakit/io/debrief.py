@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 import re
 from collections.abc import Collection, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -364,11 +364,8 @@ def _load(paths: list[Path]) -> ParsedReplay:
         except UnicodeDecodeError:
             text = p.read_text(encoding="latin-1")
         one = parse_replay_text(text, p.name if len(paths) > 1 else "")
-        merged.tracks += one.tracks
-        merged.sensors += one.sensors
-        merged.problems += one.problems
-        merged.carries += one.carries
-        merged.solutions += one.solutions
+        for f in fields(ParsedReplay):
+            getattr(merged, f.name).extend(getattr(one, f.name))
     return merged
 
 

@@ -33,18 +33,7 @@ TEMP_PATTERN = re.compile(r"^\..+\.[0-9a-f]{12}\.tmp(\.[A-Za-z0-9]{1,8})?$")
 
 
 def exists_error(path: str | os.PathLike[str]) -> FileExistsError:
-    """Build the error for refusing to overwrite ``path`` (it names ``force=True``).
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The existing file.
-
-    Returns
-    -------
-    FileExistsError
-        Not raised: the caller raises it.
-    """
+    """Build (not raise) the error refusing to overwrite ``path``; it names ``force=True``."""
     return FileExistsError(f"{path} already exists; pass force=True to overwrite it")
 
 
@@ -171,18 +160,7 @@ TABLE_SUFFIXES: dict[str, str] = {".csv": "csv", ".parquet": "parquet", ".pq": "
 
 
 def table_format(path: str | os.PathLike[str]) -> str | None:
-    """Return the table format of ``path`` by its suffix: ``"csv"``, ``"parquet"`` or ``None``.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        The file name.
-
-    Returns
-    -------
-    str or None
-        The format name, ``None`` for a suffix that names no table format.
-    """
+    """Return the table format of ``path`` by its suffix: ``"csv"``, ``"parquet"`` or ``None``."""
     return TABLE_SUFFIXES.get(Path(path).suffix.lower())
 
 

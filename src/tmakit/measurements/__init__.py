@@ -43,7 +43,6 @@ __all__ = [
     "ValueRange",
     "interval_count",
     "model_for",
-    "options_with_metadata",
     "range_difference_covariance",
     "shared_reference_covariance",
 ]
@@ -79,25 +78,7 @@ def model_for(kind: str, options: Mapping[str, object] | None = None) -> Measure
 def options_with_metadata(kinds: Iterable[str], options: Mapping[str, Mapping[str, object]]
                           | None, metadata: Mapping[str, str]
                           ) -> dict[str, dict[str, object]]:
-    """Merge the per-kind options a set's metadata states under the options given.
-
-    Parameters
-    ----------
-    kinds : iterable of str
-    options : mapping, optional
-        Per-kind options; they win over the metadata.
-    metadata : mapping of str to str
-        E.g. ``tdoa_noise``, ``fdoa_carrier``.
-
-    Returns
-    -------
-    dict
-
-    Raises
-    ------
-    ValueError
-        If a metadata key a kind reads holds a bad value.
-    """
+    """Merge the per-kind options a set's metadata states under the options given (these win)."""
     out = {k: dict(v) for k, v in dict(options or {}).items()}
     for kind in kinds:
         stated = KINDS[kind].options_from_metadata(metadata) if kind in KINDS else {}

@@ -484,20 +484,6 @@ class MeasurementModel:
         return h0, a_const, a_var, base.rel, base.rel_ref, np.stack(d_a, axis=-2), dA_ref
 
     # -- edges: file units <-> SI ------------------------------------------------------
-    def value_to_si(self, value: ArrayLike) -> Array:
-        """Convert file values to SI: ``value * file_scale + file_offset``.
-
-        Parameters
-        ----------
-        value : array_like
-            Values in :attr:`file_unit`.
-
-        Returns
-        -------
-        ndarray
-        """
-        return np.asarray(value, dtype=float) * self.file_scale + self.file_offset
-
     def value_from_si(self, value: ArrayLike) -> Array:
         """Convert SI values to :attr:`file_unit`.
 
