@@ -586,7 +586,7 @@ def test_records_give_the_header_the_line_of_each_row_and_their_problems(body, e
     from tmakit.io.errors import MeasurementFileError
 
     try:
-        names, lines = csv_file._record_lines(Path("x.csv"), body, 4)
+        names, _, lines = csv_file._record_lines(Path("x.csv"), body, 4)
     except MeasurementFileError as e:
         assert ("refused", e.problems) == expected
     else:

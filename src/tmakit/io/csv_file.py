@@ -102,8 +102,9 @@ def _preamble(data: bytes, complete: bool) -> tuple[dict[str, str], int, int] | 
     return metadata, bom + len(text[:consumed].encode("utf-8")), lines
 
 
-def _record_lines(path: Path, body: bytes, pre_lines: int) -> tuple[list[str], NDArray[np.int64]]:
-    """Read the header names and the line of each data record."""
+def _record_lines(path: Path, body: bytes, pre_lines: int
+                  ) -> tuple[list[str], list[str], NDArray[np.int64]]:
+    """Read the header names (stripped, and as written) and the line of each data record."""
     reader = csv.reader(io.TextIOWrapper(io.BytesIO(body), encoding="utf-8", newline=""))
     first: list[str] | None = next(reader, None)
     if first is None:
@@ -129,7 +130,7 @@ def _record_lines(path: Path, body: bytes, pre_lines: int) -> tuple[list[str], N
             problems.append(
                 f"row {len(line_numbers)} (line {line_numbers[-1]}): expected {len(header)} "
                 f"fields (one per header column), found {len(record)}")
-    return (_checked_header(path, header, header_line, problems),
+    return (_checked_header(path, header, header_line, problems), header,
             np.frombuffer(line_numbers, dtype=np.int64))
 
 
@@ -529,20 +530,14 @@ def load_csv(path: Path, as_text: bool = False) -> RawTable:
     metadata, start, pre_lines = found
     body = data[start:] if start else data
     del data
-    names, lines = _record_lines(path, body, pre_lines)
+    names, raw_names, lines = _record_lines(path, body, pre_lines)
     try:
-        frame = _read_table(body, _raw_header(body), as_text)
+        frame = _read_table(body, raw_names, as_text)
     except (pa.ArrowException, ValueError) as e:
         raise MeasurementFileError(path, [f"cannot read the CSV table ({e})"]) from None
     frame.columns = [n for n in names if n in READ_COLUMNS]  # others are ignored: not read
     line_numbers = lines if len(lines) == len(frame) else None
     return RawTable(frame, metadata, line_numbers)
-
-
-def _raw_header(body: bytes) -> list[str]:
-    """Return the header names as written (not stripped), as the parser sees them."""
-    first = io.TextIOWrapper(io.BytesIO(body), encoding="utf-8", newline="")
-    return next(csv.reader(first), [])
 
 
 def csv_metadata_line(path: Path, key: str, value: str) -> str:

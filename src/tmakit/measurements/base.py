@@ -245,12 +245,7 @@ class MeasurementModel:
 
     @property
     def nuisance_names(self) -> tuple[str, ...]:
-        """Names of the nuisance parameters (shared by all samples).
-
-        Returns
-        -------
-        tuple of str
-        """
+        """Names of the nuisance parameters (shared by all samples)."""
         return ()
 
     def default_nuisance(self) -> dict[str, float]:
