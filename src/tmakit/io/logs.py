@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from .. import rules
 from ..measurements import KINDS
+from ..results.answers import KNOT
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..data import MeasurementSet
@@ -226,8 +227,6 @@ def course_speed_velocity(course_deg: NDArray[np.float64], speed: NDArray[np.flo
     return np.column_stack([s * np.sin(c), s * np.cos(c), np.zeros_like(s)])
 
 
-#: One knot in m/s (1852 m per hour).
-KNOT = 1852.0 / 3600.0
 #: One yard in m.
 YARD = 0.9144
 

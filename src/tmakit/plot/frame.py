@@ -186,21 +186,7 @@ def answer_ellipse(frame: MapFrame, a: Any, centre: np.ndarray, level: float
 
 
 def truth_track(meas: MeasurementSet, n: int = 200) -> np.ndarray | None:
-    """Return the true target path over the set's time span, from its metadata.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The measurements (simulated sets carry the truth in their metadata).
-    n : int
-        Number of times, evenly spread from the first to the last measurement time.
-
-    Returns
-    -------
-    ndarray, shape (n, 6), or None
-        True states ``[x, y, z, vx, vy, vz]`` (m, m/s); None for an empty set or one without
-        the truth.
-    """
+    """Give the true states ``(n, 6)`` over the set's time span from its metadata (None: none)."""
     if len(meas) == 0:
         return None
     return truth_states(meas, np.linspace(meas.time.min(), meas.time.max(), n), 3)
