@@ -10,8 +10,8 @@ from typer.testing import CliRunner
 
 import tmakit as tk
 from tmakit.cli import app
-from tmakit.results import estimate_answer, track_answer
-from tmakit.results.answers import KNOT, position_ellipse
+from tmakit.results import track_answer
+from tmakit.results.answers import KNOT, estimate_answer, position_ellipse
 
 runner = CliRunner()
 

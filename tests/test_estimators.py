@@ -25,13 +25,9 @@ from tmakit.batch import (
 from tmakit.batch.ml import estimate as estimate_ml
 from tmakit.bounds import crlb
 from tmakit.reproduce.doppler_lecture import with_receivers
-from tmakit.results import (
-    DIVERGED,
-    KnownNuisance,
-    as_known_nuisance,
-    diverged_result,
-    result_from_covariance,
-)
+from tmakit.results import DIVERGED, KnownNuisance
+from tmakit.results.estimate import diverged_result, result_from_covariance
+from tmakit.results.nuisance import as_known_nuisance
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "tmakit"
 PAPER_START = (4900.0, 1200.0, 0.0, 0.0)

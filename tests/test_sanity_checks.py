@@ -12,13 +12,8 @@ from typer.testing import CliRunner
 
 import tmakit as tk
 from tmakit.cli import app
-from tmakit.results import (
-    chi2_warning,
-    measurement_warnings,
-    normalised_residuals,
-    scale_sigma,
-)
-from tmakit.results.checks import CHI2_P_LIMIT, FAR_FROM_ORIGIN, chi2_probability
+from tmakit.results import measurement_warnings, normalised_residuals, scale_sigma
+from tmakit.results.checks import CHI2_P_LIMIT, FAR_FROM_ORIGIN, chi2_probability, chi2_warning
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))
 from sanity_checks import chi2_study, radians_study

@@ -20,7 +20,7 @@ from typer.testing import CliRunner
 
 import tmakit as tk
 from tmakit.cli import app
-from tmakit.results import separated_solutions
+from tmakit.results.solutions import separated_solutions
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))
 import solutions_coverage

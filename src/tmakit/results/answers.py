@@ -216,26 +216,7 @@ def answer_from_state(state: NDArray[np.float64], cov: NDArray[np.float64], t: f
                       dim: int = 3, stationary: bool = False,
                       level: float = ELLIPSE_LEVEL,
                       null: NDArray[np.float64] | None = None) -> Answer:
-    """Return the answer for a state and its covariance (the one computation of user terms).
-
-    Parameters
-    ----------
-    state : ndarray, shape (6,)
-        ENU position (m) and velocity (m/s).
-    cov : ndarray, shape (6, 6)
-        Infinite or NaN entries mark unobservable directions.
-    t : float
-        s.
-    meas, sensor, level : optional
-        As for :func:`estimate_answer`.
-    dim, stationary : int, bool
-    null : ndarray, shape (6, r), optional
-        The state's unobservable directions; what moves with them is None.
-
-    Returns
-    -------
-    Answer
-    """
+    """Return the answer for a state and covariance (inf/NaN: unobservable; ``null``: its nulls)."""
     state = np.asarray(state, dtype=float)
     cov = np.where(np.isnan(cov), np.inf, np.asarray(cov, dtype=float))
     parts = [_finite(state[i], _std(np.eye(6)[i], cov, null))
@@ -329,29 +310,7 @@ def _is_stationary(jac: NDArray[np.float64], state: NDArray[np.float64]) -> bool
 def estimate_answer(result: object, meas: MeasurementSet | None = None,
                     time: float | None = None, sensor: str | None = None,
                     level: float = ELLIPSE_LEVEL) -> Answer:
-    """Return a batch estimate in the user's terms at a chosen time.
-
-    Parameters
-    ----------
-    result : EstimateResult
-    meas : MeasurementSet, optional
-        Origins and the sensor's track.
-    time : float, optional
-        s; default the last measurement time.
-    sensor : str, optional
-        For range and bearing; default the last measurement's.
-    level : float
-        Probability inside the ellipse.
-
-    Returns
-    -------
-    Answer
-
-    Raises
-    ------
-    ValueError
-        If ``time`` is not finite or far from the measurements.
-    """
+    """Return a batch estimate in the user's terms at ``time`` (default the last measurement's)."""
     from ..rules import time_problem
 
     motion = result.motion  # type: ignore[attr-defined]
@@ -441,7 +400,7 @@ def track_answer(track: object, meas: MeasurementSet | None = None, index: int =
     index : int
         The update (default the last).
     meas, sensor, level : optional
-        As for :func:`estimate_answer`.
+        As for :meth:`EstimateResult.answer <tmakit.results.EstimateResult.answer>`.
 
     Returns
     -------

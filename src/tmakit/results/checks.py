@@ -67,16 +67,7 @@ def chi2_probability(chi2: float, dof: int) -> float | None:
 
 
 def chi2_warning(chi2: float, dof: int, limit: float = CHI2_P_LIMIT) -> SanityWarning | None:
-    """Flag a fit whose chi-square is improbable (``p < limit``) and name the likely causes.
-
-    Parameters
-    ----------
-    chi2, dof, limit : float, int, float
-
-    Returns
-    -------
-    SanityWarning or None
-    """
+    """Flag a fit whose chi-square is improbable (``p < limit``) and name the likely causes."""
     p = chi2_probability(chi2, dof)
     if p is None or p >= limit:
         return None
@@ -247,18 +238,7 @@ def range_spread_warning(solutions: list[Any], meas: MeasurementSet) -> SanityWa
 
 
 def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
-    """Return every warning about a batch estimate and its measurements.
-
-    Parameters
-    ----------
-    result : EstimateResult
-    meas : MeasurementSet
-        The measurements fitted.
-
-    Returns
-    -------
-    list of SanityWarning
-    """
+    """Return every warning about a batch estimate and the measurements it fitted."""
     farthest = _farthest_sensor(meas) if len(meas) else None
     found = measurement_warnings(meas, farthest)
     chi2, dof = float(result.chi2), int(result.dof)  # type: ignore[attr-defined]

@@ -202,21 +202,32 @@ class EstimateResult:
 
     def answer(self, meas: MeasurementSet | None = None, time: float | None = None,
                sensor: str | None = None, level: float = ELLIPSE_LEVEL) -> Answer:
-        """Return the estimate in the user's terms (:func:`~tmakit.results.estimate_answer`).
+        """Return the estimate in the user's terms at one time.
 
         Parameters
         ----------
-        meas, time, sensor, level : optional
-            As for :func:`~tmakit.results.estimate_answer`.
+        meas : MeasurementSet, optional
+            Origins and the sensor's track.
+        time : float, optional
+            s; default the last measurement time.
+        sensor : str, optional
+            For range and bearing; default the last measurement's.
+        level : float, optional
+            Probability inside the ellipse.
 
         Returns
         -------
         Answer
+
+        Raises
+        ------
+        ValueError
+            If ``time`` is not finite or far from the measurements.
         """
         return estimate_answer(self, meas, time, sensor, level)
 
     def warnings(self, meas: MeasurementSet) -> list[SanityWarning]:
-        """Return the sanity warnings of the fit on ``meas`` (:func:`~tmakit.results.fit_warnings`).
+        """Return the sanity warnings of the fit and of the measurements it fitted.
 
         Parameters
         ----------
@@ -316,17 +327,7 @@ def _reference_time(motion: MotionModel) -> float | None:
 def diverged_result(motion: MotionModel, nuisance_names: Sequence[str], iterations: int,
                     dof: int, method: str, message: str, starts: int = 1,
                     extra: dict[str, object] | None = None) -> EstimateResult:
-    """Return the result of a diverged solve: values and std NaN, chi2 infinite.
-
-    Parameters
-    ----------
-    motion, nuisance_names, iterations, dof, method, message, starts, extra
-        As the fields of :class:`EstimateResult` (``nuisance_names``: its nuisance's keys).
-
-    Returns
-    -------
-    EstimateResult
-    """
+    """Return the result of a diverged solve: values and std NaN, chi2 infinite."""
     p = motion.n_params
     nan = np.full(p, np.nan)
     return EstimateResult(motion.param_names, nan, nan, np.full((p, p), np.nan),
@@ -341,20 +342,7 @@ def result_from_covariance(motion: MotionModel, theta: NDArray[np.float64],
                            iterations: int, chi2: float, dof: int, method: str,
                            message: str = "", extra: dict[str, object] | None = None
                            ) -> EstimateResult:
-    """Return the result of a fit whose method computed its own covariance (no bound).
-
-    Parameters
-    ----------
-    theta : ndarray, shape (p,)
-    covariance : ndarray, shape (q, q), q >= p
-        The motion parameters first.
-    motion, nuisance, status, iterations, chi2, dof, method, message, extra
-        As the fields of :class:`EstimateResult`.
-
-    Returns
-    -------
-    EstimateResult
-    """
+    """Return the result of a fit whose method computed its own covariance (no bound)."""
     p = motion.n_params
     std = np.sqrt(np.clip(np.diag(covariance), 0.0, None))[:p]
     return EstimateResult(motion.param_names, theta.copy(), std, covariance[:p, :p], nuisance,

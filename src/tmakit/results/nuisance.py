@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["KnownNuisance", "KnownNuisanceLike", "as_known_nuisance"]
+__all__ = ["KnownNuisance"]
 
 
 @dataclass(frozen=True)
@@ -51,22 +51,7 @@ KnownNuisanceLike = KnownNuisance | Mapping[str, float] | bool | None
 
 
 def as_known_nuisance(value: KnownNuisanceLike) -> KnownNuisance | None:
-    """Convert ``known_nuisance`` to a :class:`KnownNuisance` or ``None``.
-
-    Parameters
-    ----------
-    value : KnownNuisance, Mapping[str, float], bool or None
-        None/False: unknown; True: known at the context's values; a mapping: at these values.
-
-    Returns
-    -------
-    KnownNuisance or None
-
-    Raises
-    ------
-    TypeError
-        For any other type.
-    """
+    """Convert ``known_nuisance`` (None/False: unknown; True: known; a mapping: these values)."""
     if value is None:
         return None
     if isinstance(value, bool | np.bool_):

@@ -181,21 +181,7 @@ def range_spread(solutions: Sequence[Solution], meas: MeasurementSet | None,
 def separated_solutions(best: EstimateResult, others: Sequence[EstimateResult],
                         meas: MeasurementSet, alpha: float = SOLUTION_ALPHA,
                         price: float = 0.0) -> list[Solution]:
-    """Rank the fits that explain the data about as well as the reported one.
-
-    Parameters
-    ----------
-    best, others : EstimateResult, sequence of EstimateResult
-        The reported fit (rank 1); other fits the search ended in.
-    meas : MeasurementSet
-    alpha, price : float
-        Level of the test; chi2 per unknown (0: fits of one model).
-
-    Returns
-    -------
-    list of Solution
-        The reported fit first, then those kept, by statistic.
-    """
+    """Rank the fits that explain the data about as well as the reported one (``best`` first)."""
     d = _unknowns(best)
     out = [Solution(best, 1, 0.0, 1.0)]
     time = float(np.max(meas.time)) if len(meas) else 0.0

@@ -6,8 +6,7 @@ from typing import Final, Literal, get_args
 
 from .bound import Bound
 
-__all__ = ["CONVERGED", "DIVERGED", "NOT_CONVERGED", "STATUSES", "UNOBSERVABLE", "Status",
-           "fit_status"]
+__all__ = ["CONVERGED", "DIVERGED", "NOT_CONVERGED", "STATUSES", "UNOBSERVABLE", "Status"]
 
 #: A batch estimate's status.
 Status = Literal["converged", "did not converge", "unobservable", "diverged"]
@@ -20,18 +19,7 @@ STATUSES: tuple[Status, ...] = get_args(Status)
 
 
 def fit_status(converged: bool, bound: Bound, unknowns: int) -> tuple[Status, str]:
-    """Return the status of a fit and the sentence that explains it.
-
-    Parameters
-    ----------
-    converged, bound, unknowns : bool, Bound, int
-        The bound: the information at the fit (rank deficient: ``unobservable``).
-
-    Returns
-    -------
-    status, message : Status, str
-        The message empty for a converged, observable fit.
-    """
+    """Return the status of a fit and the sentence that explains it."""
     if not bound.observability.full_rank:
         return UNOBSERVABLE, (f"the data determine only {bound.rank} of the {unknowns} "
                               "unknowns; parameters marked unobservable are not estimates")
