@@ -20,9 +20,9 @@ from tmakit.planning import (
     Planner,
     SensorPlan,
     WeightedTrace,
-    cubature_points,
-    step_information,
 )
+from tmakit.planning.belief import cubature_points
+from tmakit.planning.candidates import step_information
 from tmakit.sensors import Actions, PlatformKinematics, PlatformState, platform_configuration
 
 CONFIG = platform_configuration("hurtado_nehorai_2008")

@@ -5,13 +5,12 @@ a criterion of the predicted Bayesian information (eqs. 10-13), under the platfo
 limits and tactical constraints.  See ``docs/planning.md``.
 """
 
-from .belief import Belief, cubature_points
-from .candidates import expected_information, step_information
+from .belief import Belief
 from .constraints import KeepOutZones, MaximumRange, MinimumRange, OperatingArea, Violation
 from .criteria import CustomCriterion, LogDet, WeightedTrace, criterion_from_name
 from .measurement_plan import SensorPlan
 from .mission import MissionPlan, MissionPlanner
-from .planner import Continuation, Planner, Recommendation, SearchResult, position_bound, recommend
+from .planner import Continuation, Planner, Recommendation, recommend
 
 __all__ = [
     "Belief",
@@ -26,14 +25,9 @@ __all__ = [
     "OperatingArea",
     "Planner",
     "Recommendation",
-    "SearchResult",
     "SensorPlan",
     "Violation",
     "WeightedTrace",
     "criterion_from_name",
-    "cubature_points",
-    "expected_information",
-    "position_bound",
     "recommend",
-    "step_information",
 ]

@@ -21,25 +21,7 @@ from ..filters.base import TrackingFilter
 
 
 def cubature_points(mean: ArrayLike, covariance: ArrayLike) -> tuple[Array, Array]:
-    """Return the ``2 n`` equally weighted cubature points of a Gaussian.
-
-    ``mean +- sqrt(n) L e_j`` with ``L L^T = covariance``: they match its mean and covariance
-    exactly and, unlike the unscented set with ``kappa = 3 - n``, have no negative weight (so an
-    average of information matrices over them stays positive semi-definite).
-
-    Parameters
-    ----------
-    mean : array_like, shape (n,)
-        Mean (SI).
-    covariance : array_like, shape (n, n)
-        Covariance (SI), positive semi-definite.
-
-    Returns
-    -------
-    points : ndarray, shape (2 n, n)
-    weights : ndarray, shape (2 n,)
-        All ``1 / (2 n)``.
-    """
+    """Return the ``2 n`` equally weighted cubature points of a Gaussian (no negative weight)."""
     m = np.asarray(mean, dtype=float)
     n = m.shape[0]
     spread = np.sqrt(n) * safe_cholesky(np.asarray(covariance, dtype=float)).T  # rows L e_j
@@ -132,20 +114,3 @@ class Belief:
     def mean(self) -> Array:
         """The weighted mean target state (n,), SI."""
         return self.weights @ self.states
-
-    def replace(self, posterior: PosteriorInformation, states: ArrayLike,
-                weights: ArrayLike | None = None) -> Belief:
-        """Return a belief with new contents (for the next decision).
-
-        Parameters
-        ----------
-        posterior : PosteriorInformation
-            ``J`` at the new time.
-        states, weights
-            The new target cloud, as for the constructor.
-
-        Returns
-        -------
-        Belief
-        """
-        return Belief(posterior, states, weights)

@@ -1,22 +1,10 @@
 """The predicted information of every candidate step at once (the heart of the planner).
 
-Each candidate's Bayesian information is carried over one decision interval by the recursion of
-Hurtado & Nehorai (2008), eq. 10, ``J <- (Q + F J^{-1} F^T)^{-1}``, ``J <- J + Gamma``, with
-``Gamma`` the information ``Xi`` at the predicted cloud's mean (``"mean"``, the paper's choice,
-eq. 13) or averaged over the cloud (``"cloud"``, section 4.2); vectorised over candidates and cloud.
-
-``Gamma`` of planar bearing, range and range-rate plans is compiled (:mod:`.compiled`).  For the
-other plans whose kinds are all geometric (functions of the relative position ``d`` and velocity
-``u`` only, no options or nuisance) :func:`cloud_information` writes the Jacobians out component
-by component on ``(C, N)`` arrays (``rho^2 = dx^2 + dy^2``, ``r = |d|``):
-
-* bearing ``atan2(dx, dy)``: ``d/dd = (dy, -dx, 0) / rho^2``;
-* elevation ``atan2(dz, rho)``: ``d/dd = (-dx dz, -dy dz, rho^2) / (rho r^2)``;
-* range ``r``: ``d/dd = d / r``;
-* range rate ``d.u / r``: ``d/dd = (u - rdot d / r) / r``, ``d/du = d / r``;
-
-whitened by ``R^{-1/2}``, their products summed over the rows, each entry of ``Gamma`` one
-weighted sum over the cloud.  Any other plan takes :meth:`MeasurementGroup.information`.
+Each candidate's information is carried over one decision interval by Hurtado & Nehorai (2008),
+eq. 10, ``J <- (Q + F J^{-1} F^T)^{-1} + Gamma``, with ``Gamma`` the information ``Xi`` at the
+predicted cloud's mean (``"mean"``, eq. 13) or averaged over the cloud (``"cloud"``, section
+4.2).  Planar plans take the compiled closed form (:mod:`.compiled`), other geometric plans
+:func:`cloud_information`, any other :meth:`MeasurementGroup.information`.
 """
 
 from __future__ import annotations
@@ -49,30 +37,7 @@ def check_gamma(gamma: str) -> GammaForm:
 
 def expected_information(plan: SensorPlan, states: Array, weights: Array,
                          sensor_states: Array, gamma: GammaForm) -> Array:
-    """Return ``Gamma`` for each candidate sensor state at one measurement time.
-
-    Parameters
-    ----------
-    plan : SensorPlan
-        What is measured.
-    states : ndarray, shape (N, n)
-        The predicted target cloud at the measurement time.
-    weights : ndarray, shape (N,)
-        Its normalised weights.
-    sensor_states : ndarray, shape (*B, 6)
-        Candidate sensor states at that time.
-    gamma : {"mean", "cloud"}
-        How ``Gamma`` is formed.
-
-    Returns
-    -------
-    ndarray, shape (*B, n, n)
-        SI.
-
-    References
-    ----------
-    Hurtado & Nehorai (2008), eqs. 11 and 13, section 4.2.
-    """
+    """Return ``Gamma`` (*B, n, n) of each candidate sensor state at one time (eqs. 11, 13)."""
     if gamma == "mean" or states.shape[0] == 1:
         states, weights = (weights @ states)[None, :], _ONE
     if supports_planar(plan, sensor_states):
@@ -86,39 +51,7 @@ def expected_information(plan: SensorPlan, states: Array, weights: Array,
 def step_information(belief: Belief, information: Array, plan: SensorPlan,
                      sensor_states: Array, interval: float, gamma: GammaForm,
                      cloud: tuple[Array, Array] | None = None) -> Array:
-    """Carry ``J`` through one decision step for every candidate at once.
-
-    Parameters
-    ----------
-    belief : Belief
-        Supplies the dynamics, the decision time and (without ``cloud``) the target cloud.
-    information : ndarray, shape (*B, n, n) or (n, n)
-        ``J`` at the start of the step (one per candidate, or one for all).
-    plan : SensorPlan
-        What is measured, and when in the step.
-    sensor_states : ndarray, shape (*B, k, 6)
-        Candidate sensor states at the plan's ``k`` measurement times.
-    interval : float
-        The decision interval ``T``, s.
-    gamma : {"mean", "cloud"}
-        How ``Gamma`` is formed.
-    cloud : tuple of ndarray, optional
-        ``(states (N, n), weights (N,))`` at the start of the step, when not the belief's.
-
-    Returns
-    -------
-    ndarray, shape (*B, n, n)
-        ``J_{k+1}`` at the end of the step, SI.
-
-    Raises
-    ------
-    ValueError
-        If ``sensor_states`` do not have one time per measurement of the plan.
-
-    References
-    ----------
-    Hurtado & Nehorai (2008), eqs. 10-13.
-    """
+    """Carry ``J`` through one decision step for every candidate at once (eqs. 10-13)."""
     posterior = belief.posterior
     states, weights = (belief.states, belief.weights) if cloud is None else cloud
     times = plan.measurement_times(interval)

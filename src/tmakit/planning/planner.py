@@ -91,20 +91,7 @@ class Recommendation:
 
 
 def position_bound(information: Array, covariance: Array | None = None) -> Array:
-    """Return ``sqrt(trace)`` of the position block of ``J^{-1}``.
-
-    Parameters
-    ----------
-    information : ndarray, shape (..., n, n)
-        ``J``, SI.
-    covariance : ndarray, shape (..., n, n), optional
-        ``bound_covariance(information)`` if already computed.
-
-    Returns
-    -------
-    ndarray, shape (...,)
-        The position RMS bound, m.
-    """
+    """Return ``sqrt(trace)`` of the position block of ``J^{-1}``, m."""
     dim = information.shape[-1] // 2
     cov = bound_covariance(information) if covariance is None else covariance
     return cast(Array, np.sqrt(np.clip(np.einsum("...ii->...", cov[..., :dim, :dim]), 0.0, None)))
@@ -424,25 +411,12 @@ class Continuation:
 
 @dataclass(frozen=True, eq=False)
 class SearchResult:
-    """What :func:`search` found.
+    """What :func:`search` found (per first action: inf where the beam dropped all its leaves)."""
 
-    Attributes
-    ----------
-    cost : ndarray, shape (A,)
-        Best leaf cost over the sequences that start with each first action (``inf`` where
-        the beam dropped every one of them).
-    bad : ndarray, shape (A,)
-        Total hard violation (m) of that leaf (``inf`` where dropped).
-    sequence : ndarray of int, shape (H,)
-        The best sequence's action indices.
-    nodes : int
-        Nodes whose information was computed (the work done).
-    """
-
-    cost: Array
-    bad: Array
-    sequence: Array
-    nodes: int
+    cost: Array  # (A,) best leaf cost of the sequences starting with each action
+    bad: Array  # (A,) that leaf's total hard violation, m
+    sequence: Array  # (H,) the best sequence's action indices
+    nodes: int  # nodes whose information was computed
 
 
 def _score(planner: Planner, continuation: Continuation | None, ends: PlatformState,
