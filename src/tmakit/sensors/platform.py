@@ -565,21 +565,6 @@ class PlatformKinematics:
                     end, w, acc, c, T, flags["speed range"], flags["turn-rate limit"],
                     flags["acceleration limit"], flags["climb-rate limit or altitude band"])
 
-    def sensor_states(self, state: PlatformState, actions: Actions, interval: float,
-                      times: ArrayLike) -> Array:
-        """Return ``self.step(state, actions, interval).sensor_states(times)`` (m, m/s).
-
-        Parameters
-        ----------
-        state, actions, interval, times
-            As for :meth:`step` and :meth:`Step.sensor_states`.
-
-        Returns
-        -------
-        ndarray, shape (*shape, n, 6)
-        """
-        return self.step(state, actions, interval).sensor_states(times)
-
     def fly(self, start: PlatformState, actions: Actions, interval: float) -> PlatformTrack:
         """Fly ``K`` actions one after another from one start state.
 

@@ -1,11 +1,9 @@
 """The moving radar of Hurtado & Nehorai (2008): its array signal model and what it measures.
 
-:class:`RadarModel` gives the Fisher information of the array signal model (section 2.2, eqs. 4-6)
-about azimuth, elevation, delay and Doppler, the amplitude eliminated by the Schur complement
-(Stoica & Nehorai (1989)); the covariance of tmakit's bearing, elevation, range and range rate
-(mono-static Doppler ``f_D = -2 rdot / lambda``); and the state information ``Xi`` (eq. 13).
-``range_accuracy="resolution"`` replaces the range sigma by ``c / (2 B)``; docs/radar_model.md
-has the derivation and the numbers.
+:class:`RadarModel` gives the Fisher information of the signal model (section 2.2, eqs. 4-6; the
+amplitude eliminated, Stoica & Nehorai (1989)), the covariance of tmakit's bearing, elevation,
+range and range rate, and the state information ``Xi`` (eq. 13); docs/radar_model.md has the
+derivation and the values chosen where the paper is silent.
 
 References
 ----------
@@ -23,34 +21,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["HURTADO_NEHORAI_2008_RADAR", "RADAR_KINDS", "RadarModel", "elevation_of",
-           "measurement_jacobian", "measurements", "relative_states"]
+__all__ = ["HURTADO_NEHORAI_2008_RADAR", "RADAR_KINDS", "RadarModel"]
 
 Array = NDArray[np.float64]
 
 
 def relative_states(target_states: ArrayLike, sensor_states: ArrayLike) -> tuple[Array, int]:
-    """Return the relative states target minus sensor and the dimension of the targets.
-
-    Parameters
-    ----------
-    target_states : array_like, shape (..., 4) or (..., 6)
-        ``[x, y, vx, vy]`` (2-D) or ``[x, y, z, vx, vy, vz]`` (m, m/s).
-    sensor_states : array_like, shape (..., 6)
-        ``[x, y, z, vx, vy, vz]`` (m, m/s); broadcasts with the targets.
-
-    Returns
-    -------
-    relative : ndarray, shape (..., 6)
-        Target minus sensor (m, m/s); a 2-D target at ``z = 0``.
-    dim : int
-        2 or 3.
-
-    Raises
-    ------
-    ValueError
-        On states of the wrong length.
-    """
+    """Return target minus sensor states (..., 6) (2-D targets at ``z = 0``) and the targets dim."""
     x = np.asarray(target_states, dtype=float)
     s = np.asarray(sensor_states, dtype=float)
     if x.ndim == 0 or x.shape[-1] not in (4, 6):
@@ -67,24 +44,7 @@ def relative_states(target_states: ArrayLike, sensor_states: ArrayLike) -> tuple
 
 
 def measurement_jacobian(rel: Array, dim: int) -> Array:
-    """Return ``d [bearing, (elevation), range, range_rate] / d target state``.
-
-    Parameters
-    ----------
-    rel : ndarray, shape (..., 6)
-        Relative states (:func:`relative_states`), m and m/s.
-    dim : int
-        2 (no elevation row) or 3.
-
-    Returns
-    -------
-    ndarray, shape (..., m, 2 dim)
-        Rad/m, m/m, (m/s)/m and (m/s)/(m/s).
-
-    References
-    ----------
-    Hurtado & Nehorai (2008), the chain from the radar parameters to the state (after eq. 4).
-    """
+    """Return ``d [bearing, (elevation), range, range_rate] / d target state`` (..., m, 2 dim)."""
     p, v = rel[..., :3], rel[..., 3:]
     r = np.linalg.norm(p, axis=-1)
     unit = p / r[..., None]
@@ -110,38 +70,13 @@ def measurement_jacobian(rel: Array, dim: int) -> Array:
     return np.concatenate([d6[..., :dim], d6[..., 3:3 + dim]], axis=-1)
 
 
-
 def elevation_of(rel: Array) -> Array:
-    """Return the elevation ``atan2(dz, hypot(dx, dy))`` of relative states.
-
-    Parameters
-    ----------
-    rel : ndarray, shape (..., 6)
-        Relative states, m and m/s.
-
-    Returns
-    -------
-    ndarray, shape (...,)
-        Rad.
-    """
+    """Return the elevation ``atan2(dz, hypot(dx, dy))`` of relative states, rad."""
     return np.arctan2(rel[..., 2], np.hypot(rel[..., 0], rel[..., 1]))
 
 
 def measurements(rel: Array, dim: int) -> Array:
-    """``[bearing, (elevation), range, range_rate]`` of relative states ``(..., 6)``.
-
-    Parameters
-    ----------
-    rel : ndarray
-        Target minus sensor ``(..., 6)``, m and m/s.
-    dim : {2, 3}
-        Without elevation when 2.
-
-    Returns
-    -------
-    ndarray
-        ``(..., 3)`` or ``(..., 4)``: rad (bearing clockwise from North), rad, m, m/s.
-    """
+    """Return ``[bearing, (elevation), range, range_rate]`` (rad, m, m/s) of relative states."""
     p, v = rel[..., :3], rel[..., 3:]
     r = np.linalg.norm(p, axis=-1)
     out = [np.arctan2(p[..., 0], p[..., 1])]
@@ -180,48 +115,35 @@ class RadarModel:
     """A mono-static pulse radar with a uniform circular array (Hurtado & Nehorai (2008)).
 
     The defaults are :data:`HURTADO_NEHORAI_2008_RADAR`: the paper's section 5 and, where the paper
-    is silent, the values chosen here.
+    is silent, the values chosen in docs/radar_model.md.
 
     Parameters
     ----------
     carrier_frequency : float
-        Carrier, Hz (paper: 10 GHz; wavelength 29.98 mm).
+        Carrier, Hz (paper: 10 GHz).
     bandwidth : float
-        Bandwidth of the transmitted pulse, Hz (paper: 1 MHz), taken as the full width at half
-        maximum (-3 dB) of its power spectrum ``|S(f)|^2`` (Gaussian for a Gaussian LFM pulse): the
-        engineering meaning of a quoted bandwidth. The RMS bandwidth ``sigma_f = B / 2.355`` (425
-        kHz) enters the bound. *Chosen* (the paper gives no definition).
+        Full width at half maximum of the pulse's power spectrum, Hz (paper: 1 MHz).
     pulse_length : float
-        Full width at half maximum of ``|s(t)|^2``, s. *Chosen*: 10 us, a time-bandwidth product of
-        10 (a modest pulse compression); the envelope's RMS duration is ``sigma_t = T / 2.355``
-        (4.25 us). It must be at least ``2 ln 2 / (pi B)`` (0.44 us, the unchirped Gaussian); the
-        chirp supplies the rest of the bandwidth.
+        Full width at half maximum of ``|s(t)|^2``, s (chosen: 10 us); at least
+        ``2 ln 2 / (pi B)``, the chirp supplying the rest of the bandwidth.
     chirp : {"up", "down"}
-        Sign of the chirp rate ``kappa = +- sqrt(sigma_f^2 - 1 / (16 pi^2 sigma_t^2)) / sigma_t``
-        (Hz/s; 99.9 GHz/s by default). *Chosen*: "up". It sets the sign of the range / range-rate
-        correlation (negative for "up").
+        Sign of the chirp rate (the sign of the range / range-rate correlation).
     pri : float
         Pulse repetition interval, s (paper: 0.5 s): one measurement per PRI.
     elements : int
-        Number of array elements M, at least 3 (paper: 6).
+        Array elements M, at least 3 (paper: 6).
     spacing : float
-        Distance between neighbouring elements, wavelengths (paper: 0.5); the radius is ``spacing
-        lambda / (2 sin(pi / M))`` (lambda / 2 = 14.99 mm for six elements). The array lies in the
-        horizontal plane, element 0 on the East axis (*chosen*).
+        Distance between neighbouring elements, wavelengths (paper: 0.5); a horizontal uniform
+        circular array, element 0 on the East axis.
     snr_db : float
         SNR at the receiver, dB (paper: 10 dB, independent of range).
     snr_per : {"pulse", "sample"}
-        How the SNR is counted. "pulse" (*chosen*, the default): per element, after integration over
-        the pulse, ``|b|^2 sum_n |s(t_n)|^2 / sigma^2`` (the matched-filter output SNR ``E / N0`` of
-        the radar equation, which the paper's "independent of the target range" refers to); the
-        bound then does not depend on the sampling. "sample": per element and per sample at the
-        envelope's peak, ``|b|^2 / sigma^2`` (the integrated SNR is then ~ ``fs sigma_t sqrt(2 pi)``
-        = 42.6 times larger).
+        "pulse": per element after integration over the pulse (``E / N0``); "sample": per
+        element and sample at the envelope's peak.
     sampling_rate : float
-        Complex baseband sampling rate fs, Hz, at least ``2 B``. *Chosen*: 4 MHz. The pulse is
-        sampled over ``+- 8 sigma_t``: :attr:`samples_per_pulse` (273 by default) samples N.
+        Complex baseband sampling rate, Hz, at least ``2 B`` (chosen: 4 MHz).
     range_accuracy : {"derived", "resolution"}
-        "derived": the CRB of the signal model; "resolution": range sigma ``c / (2 B)`` (150 m),
+        "derived": the CRB of the signal model; "resolution": range sigma ``c / (2 B)``,
         uncorrelated.
     speed_of_light : float
         Propagation speed c, m/s.
