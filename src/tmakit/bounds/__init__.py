@@ -9,14 +9,9 @@ from ..results.observability import Direction, Observability, analyse
 from .fim import crlb, fisher_information
 from .manoeuvre import CrbPoint, CrbSequence, curvilinear_crb_sequence
 from .pcrb import PosteriorBound, deterministic_pcrb, posterior_crb
-from .pcrb_recursion import (
-    PosteriorInformation,
-    information_inverse,
-    pcrb_over_runs,
-    predict_information,
-)
+from .pcrb_recursion import PosteriorInformation, pcrb_over_runs
 
 __all__ = ["Bound", "CrbPoint", "CrbSequence", "Direction", "NoiseModel", "Observability",
            "PosteriorBound", "PosteriorInformation", "analyse", "crlb",
            "curvilinear_crb_sequence", "deterministic_pcrb", "fisher_information",
-           "information_inverse", "pcrb_over_runs", "posterior_crb", "predict_information"]
+           "pcrb_over_runs", "posterior_crb"]

@@ -27,15 +27,9 @@ if TYPE_CHECKING:  # pragma: no cover
 from ..core.linalg import check_prior
 from ..motion.dynamics import NearlyConstantVelocity, state_names
 from ..observation import MeasurementGroup, group_times
-from .pcrb_recursion import (
-    PosteriorInformation,
-    information_inverse,
-    noise_factor,
-    predict_information,
-)
+from .pcrb_recursion import PosteriorInformation, information_inverse
 
-__all__ = ["PosteriorBound", "PosteriorInformation", "deterministic_pcrb",
-           "information_inverse", "noise_factor", "posterior_crb", "predict_information"]
+__all__ = ["PosteriorBound", "deterministic_pcrb", "posterior_crb"]
 
 
 @dataclass

@@ -1,13 +1,8 @@
 """The posterior CRB as a recursion object, one step at a time.
 
 ``J_{k+1} = (Q_k + F J_k^{-1} F^T)^{-1} + Gamma_{k+1}``, ``Gamma = E[H^T R^-1 H]``
-(Tichavský, Muravchik & Nehorai (1998); Hurtado & Nehorai (2008), eqs. 10-11).  The prediction
-is in information form by Woodbury, so no inverse of ``J`` or ``Q`` is taken.
-:meth:`PosteriorInformation.expected_information` gives ``Gamma`` for many candidate sensor
-states at once (for a planner).  :func:`pcrb_over_runs` runs it for a Monte Carlo of runs, with
-``Gamma_k`` the mean over runs of the Fisher information at each run's true state and flown
-sensor state (a path steered by past measurements does not change it);
-:func:`ratio_interval` gives the Monte Carlo uncertainty of a RMSE held to it.
+(Tichavský, Muravchik & Nehorai (1998); Hurtado & Nehorai (2008), eqs. 10-11), the prediction
+in information form by Woodbury; :func:`pcrb_over_runs` runs it over a Monte Carlo's runs.
 """
 
 from __future__ import annotations
@@ -40,26 +35,7 @@ def noise_factor(q_mat: Array) -> Array:
 
 
 def predict_information(info: Array, f_inv: Array, g: Array) -> Array:
-    """Return the information after a dynamics step, ``(Q + F J^{-1} F^T)^{-1}`` (Woodbury).
-
-    Parameters
-    ----------
-    info : ndarray
-        ``J`` (..., n, n), SI.
-    f_inv : ndarray
-        ``F^{-1}`` (n, n).
-    g : ndarray
-        ``G`` (n, r), ``G G^T = Q``; ``r`` may be 0.
-
-    Returns
-    -------
-    ndarray
-        (..., n, n), SI.
-
-    References
-    ----------
-    Hurtado & Nehorai (2008), eq. 10 (first term); Tichavský, Muravchik & Nehorai (1998).
-    """
+    """Return the information after a dynamics step, ``(Q + F J^{-1} F^T)^{-1}`` (eq. 10)."""
     a = symmetrise(f_inv.T @ info @ f_inv)
     if g.shape[1] == 0:
         return a
@@ -71,22 +47,9 @@ def predict_information(info: Array, f_inv: Array, g: Array) -> Array:
 
 
 def information_inverse(info: Array) -> Array:
-    """Invert symmetric positive-definite information matrices ``(..., n, n)``, diagonal-normalised.
-
-    Parameters
-    ----------
-    info : ndarray
-        (..., n, n), SI.
-
-    Returns
-    -------
-    ndarray
-        Covariances, SI.
-    """
-    # Not tmakit.core.linalg.normalised_eigh + a pseudo-inverse (results.bound.pseudo_covariance):
-    # the Bayesian information has full rank by its prior, so this is a floored *full*
-    # inverse, batched over leading axes, divided (not multiplied) by sqrt(diag); the PCRB
-    # figures of tests/test_pcrb.py and the planners' choices depend on these numerics.
+    """Invert SPD information matrices (..., n, n), diagonal-normalised, eigenvalues floored."""
+    # A floored full inverse (the prior gives full rank), not the pseudo-inverse of
+    # results.bound: the PCRB figures and the planners' choices depend on these numerics.
     d = np.sqrt(np.clip(np.einsum("...ii->...i", info), 1e-300, None))
     norm = info / (d[..., :, None] * d[..., None, :])
     evals, evecs = np.linalg.eigh(symmetrise(norm))
@@ -265,10 +228,7 @@ class PosteriorInformation:
 
     @property
     def position_rms(self) -> Array:
-        """The bound on the RMS position error (...,), m.
-
-        The root of the trace of the position block of :attr:`covariance`.
-        """
+        """The bound on the RMS position error (...,), m: ``sqrt(trace)`` of the position block."""
         cov = self.covariance[..., :self.dim, :self.dim]
         return cast(Array, np.sqrt(np.clip(np.einsum("...ii->...", cov), 0.0, None)))
 
