@@ -1,14 +1,9 @@
 """Choose the sensor's next action by the predicted posterior CRB (Hurtado & Nehorai 2008).
 
 The :class:`Planner` flies every candidate action for one decision interval, carries the
-Bayesian information along each (eqs. 10-13), scores it by the criterion (eq. 12), checks the
-constraints and returns a :class:`Recommendation`.  With ``horizon > 1`` candidates are action
-sequences searched by :func:`search`: a beam over the action tree, each node scored by the
-criterion at its depth, or at the mission end with a :class:`Continuation` (receding horizon).
-:func:`fly` flies the candidates in one compiled loop and :func:`decide` makes a whole planar
-decision (kinematics, ``J``, criterion, bound) in one compiled call; both return None where they
-do not apply, and the planner takes its general path.
-:func:`recommend` is one decision from a user's own loop: their tracker and platform in.
+information along each (eqs. 10-13), scores it by the criterion (eq. 12) under the constraints;
+:func:`search` looks ``horizon`` steps ahead.  :func:`decide` makes a whole planar decision in one
+compiled call, or returns None and the planner takes its general path.
 """
 
 from __future__ import annotations
@@ -175,31 +170,9 @@ class Planner:
                 "lower the horizon, offer fewer actions or search with Planner(beam=N)")
         object.__setattr__(self, "constraints", tuple(self.constraints))
 
-    def expand(self, platform: PlatformState, information: Array, belief: Belief,
-               depth: int, gamma: GammaForm) -> tuple[Step, Array, list[Violation]]:
-        """Fly every action from each of a batch of states for one step, ``depth`` steps ahead.
-
-        Parameters
-        ----------
-        platform : PlatformState
-            States of batch shape ``B`` at ``belief.time + depth * interval``.
-        information : ndarray, shape (*B, n, n)
-            ``J`` at that time, per state.
-        belief : Belief
-            The decision's belief (its cloud is predicted ``depth`` steps ahead).
-        depth : int
-            Steps after the decision time (0 for the first).
-        gamma : {"mean", "cloud"}
-            How ``Gamma`` is formed.
-
-        Returns
-        -------
-        steps : Step, shape (*B, A)
-        information : ndarray, shape (*B, A, n, n)
-            ``J`` after the step.
-        violations : list of Violation
-            One per constraint, amounts of shape ``(*B * A,)`` flattened.
-        """
+    def _expand(self, platform: PlatformState, information: Array, belief: Belief,
+                depth: int, gamma: GammaForm) -> tuple[Step, Array, list[Violation]]:
+        """Fly every action from each state (batch ``B``) ``depth`` steps ahead: (*B, A)."""
         steps = fly(self.kinematics, platform, self.actions, self.interval)
         if steps is None:   # limits that raise: the NumPy step
             start = PlatformState.trusted(
@@ -253,7 +226,7 @@ class Planner:
             return Recommendation(fast.best, self.actions, fast.steps, fast.information,
                                   fast.cost, fast.bound, np.ones(n_act, dtype=bool), {}, False)
         if fast is None:
-            steps, info, viol = self.expand(platform, belief.posterior.information, belief, 0,
+            steps, info, viol = self._expand(platform, belief.posterior.information, belief, 0,
                                             self.gamma)
             cov = bound_covariance(info)      # once, for the criterion and the bound
             cost, bound = evaluate(self.criterion, info, cov), position_bound(info, cov)
@@ -343,22 +316,9 @@ class Continuation:
             raise ValueError(f"continuation samples must be a whole number >= 1; got "
                              f"{self.samples!r}")
 
-    def thinned_plan(self, plan: SensorPlan, interval: float, remaining: float
-                     ) -> SensorPlan | None:
-        """Return the plan of the continuation's measurements over ``remaining`` s.
-
-        Parameters
-        ----------
-        plan : SensorPlan
-            What is measured per decision step of ``interval`` s.
-        interval, remaining : float
-            The decision interval and the time left to :attr:`end_time`, s.
-
-        Returns
-        -------
-        SensorPlan or None
-            Times in ``(0, remaining]``; None when nothing is measured.
-        """
+    def _thinned_plan(self, plan: SensorPlan, interval: float, remaining: float
+                      ) -> SensorPlan | None:
+        """Return the plan of the measurements over ``remaining`` s (None: nothing measured)."""
         steps = int(np.floor(remaining / interval + 1e-9))
         if self.mode == "coast" or steps < 1:
             return None
@@ -373,33 +333,15 @@ class Continuation:
                           times=tuple(times), covariance=cov, options=plan.options,
                           nuisance=plan.nuisance)
 
-    def information(self, planner: Planner, ends: PlatformState, turn_rate: Array,
-                    information: Array, belief: Belief) -> Array:
-        """Return ``J`` at :attr:`end_time` of every node continued by the default path.
-
-        Parameters
-        ----------
-        planner : Planner
-            Supplies the kinematics, the plan and the interval.
-        ends : PlatformState
-            The nodes' platform states (batch shape ``B``), all at one time.
-        turn_rate : ndarray, shape B
-            The nodes' last turn rate, rad/s (used by ``"hold"``).
-        information : ndarray, shape (*B, n, n)
-            ``J`` at the nodes.
-        belief : Belief
-            The decision's belief (its cloud is predicted to the nodes' time).
-
-        Returns
-        -------
-        ndarray, shape (*B, n, n)
-        """
+    def _information(self, planner: Planner, ends: PlatformState, turn_rate: Array,
+                     information: Array, belief: Belief) -> Array:
+        """Return ``J`` at :attr:`end_time` of every node (batch ``B``) continued by the path."""
         remaining = self.end_time - ends.time
         if remaining <= 1e-9:
             return information
         f = belief.posterior.dynamics.transition(ends.time - belief.time)
         cloud = (belief.states @ f.T, belief.weights)
-        thin = self.thinned_plan(planner.plan, planner.interval, remaining)
+        thin = self._thinned_plan(planner.plan, planner.interval, remaining)
         if thin is None:
             f_inv, g = belief.posterior.step_factors(remaining)
             return predict_information(information, f_inv, g)
@@ -422,7 +364,7 @@ class SearchResult:
 def _score(planner: Planner, continuation: Continuation | None, ends: PlatformState,
            turn_rate: Array, info: Array, factor: Array, belief: Belief) -> Array:
     if continuation is not None:
-        info = continuation.information(planner, ends, turn_rate, info, belief)
+        info = continuation._information(planner, ends, turn_rate, info, belief)
     return planner.criterion(info) * factor
 
 
@@ -450,7 +392,7 @@ def search(planner: Planner, ends: PlatformState, turn_rate: Array, information:
             factor, bad, paths = factor[keep], bad[keep], paths[keep]
             if continuation is not None:
                 nodes += keep.size
-        steps, info, viol = planner.expand(ends, information, belief, depth, "mean")
+        steps, info, viol = planner._expand(ends, information, belief, depth, "mean")
         f_new, bad_new = penalties(viol, steps.turn_rate.size)
         m = paths.shape[0]
         factor = (factor[:, None] * f_new.reshape(m, a)).ravel()
