@@ -27,7 +27,8 @@ import time
 import numpy as np
 
 import tmakit as tk
-from tmakit.bounds import crlb, deterministic_pcrb, fisher_information, posterior_crb
+from tmakit.bounds import crlb, deterministic_pcrb, posterior_crb
+from tmakit.bounds.fim import fisher_information
 from tmakit.filters import transition_matrix
 
 REPORT_TIMES = (1.0, 60.0, 120.0, 240.0, 360.0, 480.0, 600.0)

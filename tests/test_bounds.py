@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 import tmakit as tk
-from tmakit.bounds import NoiseModel, crlb, fisher_information
+from tmakit.bounds import NoiseModel, crlb
+from tmakit.bounds.fim import fisher_information
 from tmakit.reproduce.doppler_lecture import with_receivers
 from tmakit.reproduce.gu2007 import PAPER_TABLES, crlb_tables
 

@@ -9,14 +9,9 @@ import numpy as np
 import pytest
 
 import tmakit as tk
-from tmakit.bounds import (
-    PosteriorInformation,
-    crlb,
-    deterministic_pcrb,
-    fisher_information,
-    posterior_crb,
-    predict_information,
-)
+from tmakit.bounds import PosteriorInformation, crlb, deterministic_pcrb, posterior_crb
+from tmakit.bounds.fim import fisher_information
+from tmakit.bounds.pcrb_recursion import predict_information
 from tmakit.filters import MeasurementGroup, process_noise, transition_matrix
 from tmakit.montecarlo.geometries import final_position_rms
 from tmakit.motion.dynamics import NearlyConstantVelocity

@@ -25,8 +25,8 @@ from tmakit.sensors import (
     PlatformTrack,
     SensorTrack,
     platform_configuration,
-    propagate_constant_turn,
 )
+from tmakit.sensors.platform import propagate_constant_turn
 
 HN = HURTADO_NEHORAI_2008
 DEG = math.pi / 180.0

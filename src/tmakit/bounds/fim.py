@@ -41,28 +41,7 @@ def whitened_jacobian(obs: ObservationModel, noise: NoiseModel, theta: ArrayLike
 def fisher_information(obs: ObservationModel, theta: ArrayLike, nuisance: ArrayLike,
                        known_nuisance: KnownNuisanceLike = None,
                        noise: NoiseModel | None = None) -> NDArray[np.float64]:
-    """Return the Fisher information ``J^T R^-1 J`` about the motion (and unknown nuisance).
-
-    Parameters
-    ----------
-    obs : ObservationModel
-    theta : array_like, shape (p,)
-        SI.
-    nuisance : array_like, shape (k,)
-    known_nuisance : KnownNuisance, Mapping, bool or None, optional
-        Default unknown.
-    noise : NoiseModel, optional
-        Default ``NoiseModel(obs.meas)``.
-
-    Returns
-    -------
-    ndarray, shape (q, q)
-        SI.
-
-    References
-    ----------
-    Gu et al. (2007), eqs. 17-18; Hörst & Oispuu (2010), eq. 9.
-    """
+    """Return the Fisher information ``J^T R^-1 J`` about the motion (and unknown nuisance), SI."""
     if noise is None:
         return _grouped_information(obs, obs.linearisation(theta), nuisance, known_nuisance)
     w = whitened_jacobian(obs, noise, theta, nuisance, known_nuisance)

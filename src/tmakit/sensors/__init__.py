@@ -14,7 +14,6 @@ from .platform import (
     PlatformTrack,
     Step,
     platform_configuration,
-    propagate_constant_turn,
 )
 from .radar import HURTADO_NEHORAI_2008_RADAR, RadarModel
 from .tracks import FixedSensor, Leg, LegsTrack, RecordedTrack, SensorTrack, WaypointTrack
@@ -37,5 +36,4 @@ __all__ = [
     "Step",
     "WaypointTrack",
     "platform_configuration",
-    "propagate_constant_turn",
 ]

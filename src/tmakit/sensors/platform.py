@@ -70,37 +70,7 @@ def _turn_factors(z: NDArray[np.complex128]) -> tuple[NDArray[np.complex128], ..
 def propagate_constant_turn(position: ArrayLike, heading: ArrayLike, speed: ArrayLike,
                             climb_rate: ArrayLike, turn_rate: ArrayLike,
                             acceleration: ArrayLike, dt: ArrayLike) -> Array:
-    """Sensor states after ``dt`` seconds of constant turn rate and constant acceleration.
-
-    The closed form (exact, no time stepping); all inputs broadcast.
-
-    Parameters
-    ----------
-    position : array_like, shape (..., 2) or (..., 3)
-        ENU start position (m); two coordinates mean altitude 0.
-    heading : array_like
-        Start heading (rad, clockwise from North).
-    speed : array_like
-        Start horizontal speed (m/s); ``speed + acceleration * dt`` should stay >= 0.
-    climb_rate : array_like
-        Vertical speed (m/s, up positive), constant over ``dt``.
-    turn_rate : array_like
-        Constant turn rate (rad/s, positive turns clockwise, to starboard).
-    acceleration : array_like
-        Constant tangential acceleration (m/s^2).
-    dt : array_like
-        Elapsed time (s), any sign.
-
-    Returns
-    -------
-    ndarray, shape (..., 6)
-        ``[x, y, z, vx, vy, vz]`` (m, m/s) at ``dt``.
-
-    Raises
-    ------
-    ValueError
-        If ``position`` does not end in 2 or 3 coordinates.
-    """
+    """Return sensor states (..., 6) after ``dt`` s at constant turn rate and acceleration."""
     pos = _arr(position)
     if pos.ndim == 0 or pos.shape[-1] not in (2, 3):
         raise ValueError(f"position must end in 2 or 3 ENU coordinates (m), got {pos.shape}")
