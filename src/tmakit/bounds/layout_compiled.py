@@ -1,10 +1,4 @@
-"""The layout bound's Fisher sum, compiled (``numba``): one pass over the rows, no temporaries.
-
-The sum of :func:`tmakit.bounds.layout.layout_information`, row by row: each row's range (or
-range-rate) gradient by the emitter position less its reference's, over its sigma, summed
-as ``2 y y'`` and, per group, ``2 s s' / (1 + m)`` taken off.  Imported at the first call
-(numba's on-disk cache).
-"""
+"""The layout bound's Fisher sum (:func:`tmakit.bounds.layout.layout_information`), compiled."""
 
 from __future__ import annotations
 

@@ -1,11 +1,8 @@
 """The posterior (Bayesian) Cramér–Rao bound of a recursive tracker on a measurement set.
 
-The recursion of Tichavský, Muravchik & Nehorai (1998) in the form of Hurtado & Nehorai (2008),
-eqs. 10-11, for nearly-constant-velocity dynamics (Chen & Sun, §2.1), run by
-:class:`~tmakit.bounds.pcrb_recursion.PosteriorInformation`.  ``Gamma`` is averaged over
-trajectories from the prior (with a standard error), or taken along the prior mean
-(:func:`deterministic_pcrb`).  One update per distinct time; nuisance parameters are known.
-The result is a :class:`PosteriorBound`, with its look-ups and its JSON and table forms.
+The recursion of Tichavský, Muravchik & Nehorai (1998) (Hurtado & Nehorai (2008), eqs. 10-11)
+for nearly-constant-velocity dynamics (Chen & Sun, §2.1), ``Gamma`` averaged over trajectories
+from the prior or taken along its mean; one update per distinct time, nuisance known.
 """
 
 from __future__ import annotations

@@ -1,9 +1,7 @@
 """Monte Carlo evaluation of an estimator on a scenario, against the Cramér-Rao bound.
 
-:func:`monte_carlo` (seeds, chunks, the CRLB; run ``r`` uses child ``r`` of
-``np.random.SeedSequence(seed)`` whatever the chunking), :func:`closed_loop_study` (sensor
-planners in the closed loop) and :class:`MonteCarloResult`.  Dask, distributed and tqdm are
-imported only when used.
+:func:`monte_carlo` (run ``r`` uses child ``r`` of ``np.random.SeedSequence(seed)`` whatever the
+chunking), :func:`closed_loop_study` (planners in the closed loop), :class:`MonteCarloResult`.
 """
 
 from __future__ import annotations

@@ -1,11 +1,8 @@
 """The closed loop (truth, the planner's move, a measurement, the tracker) and its Monte Carlo.
 
-:func:`run_closed_loop` is one run of Hurtado & Nehorai (2008), §4-5, for ``D`` decisions of one
-interval ``T`` each.  :func:`closed_loop_study` runs cases (a policy, a sensor plan and a
-:class:`LoopSetup`) many times: run ``r`` of every case uses child ``r`` of
-``np.random.SeedSequence(seed)``, so the table does not depend on chunking or executor and every
-case meets the same draws (common random numbers).  :meth:`ClosedLoopStudy.pcrb` is the
-posterior CRB the RMSE is held to; :meth:`ClosedLoopStudy.criterion` is what the planner believed.
+:func:`run_closed_loop` is one run of Hurtado & Nehorai (2008), §4-5; :func:`closed_loop_study`
+runs cases many times, run ``r`` of every case on child ``r`` of ``np.random.SeedSequence(seed)``
+(common random numbers, whatever the chunking).
 """
 
 from __future__ import annotations

@@ -1,13 +1,7 @@
-"""Where the chunks of a Monte Carlo study run, and the allocator settings of their processes.
+"""Where the chunks of a Monte Carlo study run: here, in worker processes, or on a Dask cluster.
 
-In this process, in a pool of worker processes on this machine, or on a Dask cluster, with a
-progress bar.  Every chunk computes the same runs wherever it runs, so the table does not depend on
-the executor or the number of workers.  Dask, distributed and tqdm are imported only when used.
-
-Raising glibc's mmap and trim thresholds to 32 MiB keeps a chunk's freed temporaries in the heap
-instead of paying page faults for them again.  It is a process-wide setting, so the library makes
-it only in processes of its own (``tma``, its worker processes, Dask workers it sends chunks to);
-a Python user calls :func:`keep_freed_memory`.
+Every chunk computes the same runs wherever it runs.  :func:`keep_freed_memory` (glibc's mmap and
+trim thresholds, a process-wide setting) is made only in tmakit's own processes.
 """
 
 from __future__ import annotations

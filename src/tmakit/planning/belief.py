@@ -1,10 +1,7 @@
 """What the planner knows at a decision: the bound so far and the tracker's target cloud.
 
-A :class:`Belief` pairs the Bayesian information ``J_k`` along the path flown so far (a
-:class:`~tmakit.bounds.pcrb_recursion.PosteriorInformation`: the recursion of Hurtado & Nehorai
-(2008), eq. 10, run on the chosen steps) with the tracker's description of the target at the same
-time: particles and weights (the paper's particle filter), sigma points of a Gaussian (EKF/UKF), or
-the mean alone.
+``J_k`` along the path flown (Hurtado & Nehorai (2008), eq. 10) with the tracker's particles,
+the sigma points of its Gaussian, or its mean.
 """
 
 from __future__ import annotations

@@ -1,10 +1,8 @@
 """The planner's compiled code (``numba``): ``Gamma`` over a cloud, ``J^{-1}``, a whole decision.
 
-``Gamma`` of planar bearing, range and range-rate plans over a cloud is written in closed form:
-per candidate, weighted sums over the cloud of products of ``1/r`` and the bearing rate ``q``
-(:data:`PRODUCTS`), combined by constant coefficients of ``W = R^{-1}``.  Every kernel works in
-float64 and writes into arrays it is given.  ``error_model="numpy"``: no zero-division check per
-element (it would keep the loops scalar); the cloud sums may be reassociated into SIMD lanes.
+``Gamma`` of planar bearing, range and range-rate plans is written in closed form: weighted sums
+over the cloud of products of ``1/r`` and the bearing rate ``q`` (:data:`PRODUCTS`), combined by
+constant coefficients of ``W = R^{-1}``.
 """
 
 from __future__ import annotations
