@@ -67,11 +67,6 @@ class Bound:
         """The rank of the information (the number of observable directions)."""
         return self.observability.rank
 
-    @property
-    def motion_parameters(self) -> tuple[str, ...]:
-        """The names of the motion parameters (the first of :attr:`parameters`)."""
-        return self.motion.param_names
-
     def std_of(self, name: str) -> float:
         """Return the std of the parameter ``name`` (SI; inf if unobservable).
 
