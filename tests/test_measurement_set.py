@@ -92,7 +92,7 @@ def test_from_si_holds_si_exactly_and_derives_file_units():
     ("sigma_si", 0.0, "row 2, column 'sigma': expected a noise standard deviation > 0"),
     ("sigma_si", -np.inf, "row 2, column 'sigma': expected a finite number, found -inf")])
 def test_a_set_built_in_si_is_refused_with_the_file_unit_cell(column, bad, message):
-    """SI sets skip the cell rules only when every cell plainly obeys them."""
+    """A set built in SI is refused with the message of its cell in file units."""
     cols = {"value_si": np.array([0.1, 0.2, 0.3]), "sigma_si": np.full(3, 0.01)}
     MeasurementSet.from_si([0, 1, 2], ["a"] * 3, ["bearing"] * 3, cols["value_si"],
                            cols["sigma_si"], np.zeros((3, 6)))

@@ -328,29 +328,8 @@ def raise_problems(found: list[str], what: str = "measurement set") -> None:
 
 def check_set(meas: Any, order: bool = True, ranges: bool = True) -> None:
     """Refuse a measurement set that breaks a rule (columns and metadata)."""
-    if not ranges and _si_cells_plainly_valid(meas):  # no cell rule can fail: skip them
-        found = _order_problems(meas.time, meas.sensor_code) if order else []
-    else:  # the rules on the file-unit cells, whose values the messages quote
-        found = column_problems(meas.time, meas.sensor_code, meas.kind_code, meas.value,
-                                meas.sigma, meas.sensor_state, meas.time_ref, order, ranges,
-                                getattr(meas, "stream_code", lambda: None)())
+    # the rules on the file-unit cells, whose values the messages quote
+    found = column_problems(meas.time, meas.sensor_code, meas.kind_code, meas.value,
+                            meas.sigma, meas.sensor_state, meas.time_ref, order, ranges,
+                            getattr(meas, "stream_code", lambda: None)())
     raise_problems(found + metadata_problems(meas.metadata))
-
-
-_PLAIN = 1e300  # SI magnitudes whose file-unit twins are finite (and non-zero) numbers
-
-
-def _si_cells_plainly_valid(meas: Any) -> bool:
-    """Tell whether every cell rule but the value ranges and the order surely holds."""
-    v, s = meas.value_si, meas.sigma_si
-    st = meas.sensor_state
-    with np.errstate(invalid="ignore"):
-        return bool(time_within_limit(meas.time).all()
-                    and (np.abs(st[:, :3]) <= REACH_M).all()
-                    and (np.abs(st[:, 3:]) <= SPEED_OF_LIGHT).all()
-                    and (np.abs(v) < _PLAIN).all() and (s > 1.0 / _PLAIN).all()
-                    and (s < _PLAIN).all()
-                    and (s >= 100 * SIGMA_FLOOR * np.maximum(np.abs(v), 1.0)).all()
-                    and not np.isinf(meas.time_ref).any()
-                    and not np.isin(meas.kind_code, [c for c, k in enumerate(KINDS.values())
-                                                     if k.sensor_at_origin]).any())
