@@ -8,7 +8,6 @@ range hypotheses drawn from the tracker).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
@@ -108,12 +107,6 @@ class FixedPolicy:
         return FixedChoice(0, step, _bound_after(belief, self.plan, step, self.interval))
 
 
-def _state_on(track: SensorTrack, t: float) -> PlatformState:
-    s = track.states(np.array([t]))[0]
-    return PlatformState(s[:3], math.atan2(s[3], s[4]), float(np.hypot(s[3], s[4])),
-                         float(s[5]), t)
-
-
 @dataclass(frozen=True, eq=False)
 class TrackPolicy:
     """Fly a given sensor track: the scenario's fixed pattern, step by step.
@@ -132,7 +125,9 @@ class TrackPolicy:
 
     def recommend(self, platform: PlatformState, belief: Belief) -> FixedChoice:
         """Fly the track for one interval."""
-        end = _state_on(self.track, platform.time + self.interval)
+        t = platform.time + self.interval
+        s = self.track.states(np.array([t]))[0]
+        end = PlatformState.from_velocity(s[:3], s[3:], t)
         turn = float(np.angle(np.exp(1j * (end.heading - platform.heading)))) / self.interval
         no = np.zeros((), dtype=bool)
         step = Step(platform, end, np.asarray(turn),

@@ -283,7 +283,7 @@ class _Build:
         if speed <= 0.0:
             raise ValueError(f"planning.sensor: sensor {sid!r} is not moving at t = {t0:g} s; "
                              "a steered sensor needs a heading and a speed > 0")
-        return PlatformState(s[:3], math.atan2(s[3], s[4]), speed, float(s[5]), float(t0))
+        return PlatformState.from_velocity(s[:3], s[3:], float(t0))
 
     def target(self, t0: float) -> Array:
         motion = self.scenario.motion
