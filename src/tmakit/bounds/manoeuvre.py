@@ -117,11 +117,6 @@ class CrbSequence:
         """Bounds on the standard deviations of x and y ``(T, 2)`` (m)."""
         return np.array([p.std for p in self.points])
 
-    @property
-    def positions(self) -> NDArray[np.float64]:
-        """True positions ``(T, 2)`` at the reference times (m, ENU)."""
-        return np.array([p.position for p in self.points])
-
     def at(self, ref_time: float) -> CrbPoint:
         """Give the point at a reference time (one of :attr:`ref_times`, s).
 
