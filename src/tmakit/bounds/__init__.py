@@ -5,13 +5,12 @@ The posterior CRB is that of recursive trackers (Tichavský, Muravchik & Nehorai
 
 from ..observation.noise import NoiseModel
 from ..results.bound import Bound
-from ..results.observability import Direction, Observability, analyse
+from ..results.observability import Direction, Observability
 from .fim import crlb
 from .manoeuvre import CrbPoint, CrbSequence, curvilinear_crb_sequence
 from .pcrb import PosteriorBound, deterministic_pcrb, posterior_crb
 from .pcrb_recursion import PosteriorInformation, pcrb_over_runs
 
 __all__ = ["Bound", "CrbPoint", "CrbSequence", "Direction", "NoiseModel", "Observability",
-           "PosteriorBound", "PosteriorInformation", "analyse", "crlb",
-           "curvilinear_crb_sequence", "deterministic_pcrb",
-           "pcrb_over_runs", "posterior_crb"]
+           "PosteriorBound", "PosteriorInformation", "crlb", "curvilinear_crb_sequence",
+           "deterministic_pcrb", "pcrb_over_runs", "posterior_crb"]

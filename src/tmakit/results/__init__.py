@@ -5,7 +5,7 @@ from .bound import Bound, bound_from_information
 from .checks import SanityWarning, measurement_warnings, normalised_residuals, scale_sigma
 from .estimate import EstimateResult, assemble_result
 from .nuisance import KnownNuisance
-from .observability import Direction, Observability, analyse
+from .observability import Direction, Observability
 from .solutions import Solution
 from .status import CONVERGED, DIVERGED, NOT_CONVERGED, STATUSES, UNOBSERVABLE, Status
 from .trust import TRUST_NONE, TRUST_OK, TRUST_WARNING, Trust, bound_trust, trust_of
@@ -30,7 +30,6 @@ __all__ = [
     "Solution",
     "Status",
     "Trust",
-    "analyse",
     "assemble_result",
     "bound_from_information",
     "bound_trust",

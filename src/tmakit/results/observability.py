@@ -218,24 +218,7 @@ def _weights(names: tuple[str, ...], vec: NDArray[np.float64]) -> dict[str, floa
 def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: MeasurementSet,
             motion: MotionModel, theta: NDArray[np.float64],
             decomposition: Decomposition | None = None) -> Observability:
-    """Find the rank, conditioning and named unobservable directions of an information.
-
-    Parameters
-    ----------
-    info : ndarray, shape (q, q)
-        SI.
-    names : tuple of str
-        Motion parameters first, then unknown nuisance.
-    meas, motion : MeasurementSet, MotionModel
-    theta : ndarray, shape (p,)
-        Where ``info`` was evaluated, SI.
-    decomposition : tuple of ndarray, optional
-        ``info``'s, if made already (e.g. by the solver).
-
-    Returns
-    -------
-    Observability
-    """
+    """Find the rank, conditioning and named unobservable directions of an information (SI)."""
     size = info.shape[0]
     unseen = _range_by_shape(meas, motion, np.asarray(theta, float), info, size)
     if decomposition is not None and unseen is None:
