@@ -513,13 +513,11 @@ class ClosedLoopStudy:
     def efficiency(self, case: str, level: float = 0.95) -> dict[str, float | None]:
         """Return the final RMSE over the posterior CRB with its Monte Carlo interval.
 
-        The interval: :func:`tmakit.bounds.pcrb_recursion.ratio_interval`.
-
         Parameters
         ----------
         case : str
         level : float, optional
-            The interval's coverage.
+            The coverage of the interval (:func:`tmakit.bounds.pcrb_recursion.ratio_interval`).
 
         Returns
         -------

@@ -178,20 +178,16 @@ class MonteCarloResult:
     def summary_table(self, level: float = 0.95) -> list[dict[str, Any]]:
         """Tabulate the summary, one row per parameter.
 
-        Columns ``parameter``, ``truth``, ``n`` (converged runs), ``bias``, ``rmse``, ``crlb``,
-        ``ratio`` (RMSE/CRLB) and its interval ``ratio_low``, ``ratio_high`` at ``level`` (see
-        :func:`ratio_interval`).
-
         Parameters
         ----------
         level : float
-            Confidence level of the ratio's interval (0 .. 1).
+            Confidence level of the ratio's interval (0 .. 1, :func:`ratio_interval`).
 
         Returns
         -------
         list of dict
-            One dict per parameter; ``truth``, ``bias``, ``rmse``, ``crlb`` in the
-            parameter's SI unit, ``ratio`` and its interval dimensionless.
+            ``parameter``, ``truth``, ``n`` (converged runs), ``bias``, ``rmse``, ``crlb`` (SI),
+            ``ratio`` (RMSE/CRLB) and its interval ``ratio_low``, ``ratio_high``.
         """
         err = self.errors()
         n = err.shape[0]
@@ -210,13 +206,11 @@ class MonteCarloResult:
     def summary(self) -> str:
         """Return a readable report.
 
-        Per parameter bias, RMSE, CRLB and RMSE/CRLB with its 95 % interval; convergence, status
-        counts and speed.
-
         Returns
         -------
         str
-            The report, several lines (wall time in s, speed in runs/s).
+            Per parameter bias, RMSE, CRLB and RMSE/CRLB with its 95 % interval; convergence,
+            status counts and speed.
         """
         counts = ", ".join(f"{k} {v}" for k, v in self.status_counts.items())
         lines = [f"Monte Carlo: {self.estimator} on {self.scenario}, {self.runs} runs "
@@ -240,15 +234,12 @@ class MonteCarloResult:
         return "\n".join(lines)
 
     def as_dict(self, runs: bool = False) -> dict[str, Any]:
-        """Return the JSON form.
-
-        Context, per-parameter summary, convergence and speed; with ``runs=True`` also the per-run
-        table as a list of records.
+        """Return the JSON form: context, per-parameter summary, convergence and speed.
 
         Parameters
         ----------
         runs : bool
-            Add the per-run table under ``table``.
+            Add the per-run table under ``table`` (a list of records).
 
         Returns
         -------
@@ -294,10 +285,8 @@ class MonteCarloResult:
         Returns
         -------
         str
-            The JSON text.
         """
         return json.dumps(self.as_dict(runs=runs), indent=indent)
-
 
 
 COMPILED_WORK = 200_000
