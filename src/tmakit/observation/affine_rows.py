@@ -58,6 +58,12 @@ class AffineRows:
         self.planar_positions = self.p >= 2 and all(
             len(own) == 1 and own[0][0] == c and own[0][1] is None
             for c, own in enumerate(self.planar_terms[:2]))
+        #: ``(i, coef)`` when parameters ``i, i + 1`` are east and north times one coefficient
+        #: alone (velocities: ``dt``): their Jacobian rows are made by one product.
+        self.planar_scaled = _scaled_pair(self.planar_terms)
+        #: ``(a, b, coef)`` when east and north are ``theta[a + c] + theta[b + c] * coef``
+        #: (constant velocity): both made by one product and one sum (see :meth:`single`).
+        self._planar_stack = _planar_stack(self._by_component[:2])
 
     @property
     def matrix(self) -> Array:
@@ -129,15 +135,21 @@ class AffineRows:
 
     def single(self, theta: Array, components: int | None = None) -> Array:
         """Give the relative states of one parameter vector from the non-zero terms."""
-        th = theta.reshape(-1).tolist()
         n_c = 6 if components is None else int(components)
         # Each component sums its terms in parameter order, then the offset: the order of
         # the dense product's sums (``theta @ matrix + offset``).  The first product is
         # written in place (``0 + a`` is ``a``, ``a + b`` is ``b + a``, the same bits): no
         # zeroed array and no temporary per term.
         out = np.empty((n_c, self.m))
-        for c in range(n_c):
-            self._component(th, c, out[c])
+        stack = self._planar_stack if n_c == 2 else None
+        if stack is not None:  # east and north b * coef + a, one coef: both rows at once
+            flat, a, b = theta.reshape(-1), stack[0], stack[1]
+            np.multiply(stack[2], flat[b:b + 2, None], out=out)
+            out += flat[a:a + 2, None]
+        else:
+            th = theta.reshape(-1).tolist()
+            for c in range(n_c):
+                self._component(th, c, out[c])
         out += self._offset_head(n_c) if n_c < 6 else self.offset
         if components is not None:
             return out
@@ -179,6 +191,27 @@ class AffineRows:
             return AffineRows(terms, _take_columns(self._base, rows), self.p,
                               np.take(self._sensor, rows, axis=0) if sensor is None else sensor)
         return AffineRows(terms, np.take(self.offset, rows, axis=1), self.p)
+
+
+def _scaled_pair(planar_terms: list[list[tuple[int, Array | None]]]) -> tuple[int, Array] | None:
+    """Find parameters ``i, i + 1`` whose only planar terms are east and north times one array."""
+    for i in range(len(planar_terms) - 1):
+        pair = planar_terms[i:i + 2]
+        if (all(len(own) == 1 and own[0][0] == c for c, own in enumerate(pair))
+                and pair[0][0][1] is not None and pair[1][0][1] is pair[0][0][1]):
+            return i, pair[0][0][1]
+    return None
+
+
+def _planar_stack(shapes: list[list[tuple[int, Array | None]]]) -> tuple[int, int, Array] | None:
+    """Find ``(a, b, coef)`` with east and north ``theta[a + c] + theta[b + c] * coef``."""
+    if not all(len(own) == 2 and own[0][1] is None for own in shapes):
+        return None
+    (a, _), (b, coef) = shapes[0]
+    (a1, _), (b1, coef1) = shapes[1]
+    if coef is None or coef1 is not coef or (a1, b1) != (a + 1, b + 1):
+        return None
+    return a, b, coef
 
 
 def _minus_sensor(base: Array, sensor: Array, n_c: int, out: Array | None = None) -> Array:

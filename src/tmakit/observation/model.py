@@ -9,7 +9,6 @@ the set's own.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from functools import cached_property
 from typing import cast
 
 import numpy as np
@@ -67,6 +66,8 @@ class ObservationModel:
         self._rel_map_ref = (None if self._ref is None else self._relative_map(
             g.time_ref[self._ref], g.ref_sensor_state[self._ref]))
         self._const_design: Array | None = None
+        #: The affine row map and the one kind's model of the planar path, or None.
+        self.planar_kind: tuple[AffineRows, MeasurementModel] | None = planar_kind(self)
 
     @property
     def order(self) -> NDArray[np.intp]:
@@ -174,12 +175,8 @@ class ObservationModel:
                             or self._ref is None
                             else self._rel_map_ref.take(pick[sub._ref] - self._ref.start))
         sub._const_design = None if self._const_design is None else self._const_design[pick]
+        sub.planar_kind = planar_kind(sub)
         return sub
-
-    @cached_property
-    def planar_kind(self) -> tuple[AffineRows, MeasurementModel] | None:
-        """The affine row map and the one kind's model of the planar path, or None."""
-        return planar_kind(self)
 
     @property
     def n_nuisance(self) -> int:

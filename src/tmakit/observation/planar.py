@@ -41,8 +41,7 @@ def planar_linearisation(obs: Any, theta: Array, weights: Array | None = None
     # parked in rows 0, 1
     squared = model.planar_gradient(rel[0], rel[1], jac[0], jac[1], weights)
     in_place = rel_map.planar_positions  # (else rows 0, 1 are overwritten before read)
-    g = (jac[0], jac[1]) if in_place else (jac[0].copy(), jac[1].copy())
-    _chain_terms(rel_map.planar_terms, g, jac, in_place)
+    _chain_terms(rel_map, jac[:2] if in_place else jac[:2].copy(), jac, in_place)
     batch = theta.shape[:-1]
     lin = Linearisation(obs, theta, None, np.zeros((*batch, rel_map.m, 0)))
     lin.planar_values = lambda: model.planar_value(rel[0], rel[1]).reshape(*batch, rel_map.m)
@@ -164,10 +163,14 @@ def _jacobian_again(obs: Any, theta: Array, weights: Array | None) -> Array:
     return lin.planar_jacobian
 
 
-def _chain_terms(planar_terms: list[list[tuple[int, Array | None]]], g: tuple[Array, Array],
-                 jac: Array, in_place: bool) -> None:
+def _chain_terms(rel_map: AffineRows, g: Array, jac: Array, in_place: bool) -> None:
     """Write ``jac[i] = sum_c g[c] coef[i, c]`` over the terms of components 0 and 1."""
-    for i, own in enumerate(planar_terms):
+    scaled = rel_map.planar_scaled  # (the velocities' pair: one product, the same bits)
+    if scaled is not None:
+        np.multiply(g, scaled[1], out=jac[scaled[0]:scaled[0] + 2])
+    for i, own in enumerate(rel_map.planar_terms):
+        if scaled is not None and 0 <= i - scaled[0] < 2:
+            continue
         row = jac[i]
         if not own:
             row.fill(0.0)
