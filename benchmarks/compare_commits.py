@@ -137,6 +137,25 @@ scn = dataclasses.replace(scn, plans=plans); m = scn.simulate(np.random.default_
 t = time.process_time()
 for _ in range(3): tk.estimate(m, scn.motion)
 """,
+    "estimate init= bearings-only 100 rows x300": """
+import dataclasses, numpy as np
+scn = tk.load_scenario("bearings-only-2d"); lo, hi = scn.time_span()
+plans = [dataclasses.replace(p, times=np.linspace(lo, hi, 100)) for p in scn.plans]
+scn = dataclasses.replace(scn, plans=plans); m = scn.simulate(np.random.default_rng(0))
+start = scn.theta + 3.0 * tk.crlb(scn).std[:4] * np.array([1.0, -1.0, 1.0, -1.0])
+tk.estimate(m, scn.motion, init=start)
+t = time.process_time()
+for _ in range(300): tk.estimate(m, scn.motion, init=start)
+""",
+    "crlb bearings-only 1000 rows x300": """
+import dataclasses, numpy as np
+scn = tk.load_scenario("bearings-only-2d"); lo, hi = scn.time_span()
+plans = [dataclasses.replace(p, times=np.linspace(lo, hi, 1000)) for p in scn.plans]
+scn = dataclasses.replace(scn, plans=plans); m = scn.simulate(np.random.default_rng(0))
+tk.crlb(m, scn.motion, scn.truth)
+t = time.process_time()
+for _ in range(300): tk.crlb(m, scn.motion, scn.truth)
+""",
     "estimate chen-sun-1 (bearing + range differences)": """
 m = tk.load_scenario("chen-sun-1").simulate(rng=2)
 t = time.process_time()

@@ -88,13 +88,18 @@ def normal_equations(ev: Evaluation, free: NDArray[np.bool_] | None) -> tuple[Ar
         keep = free if jac.shape[-1] == free.size else np.ones(jac.shape[-1], np.bool_)
         jac = jac[:, :, keep]
     if jac.shape[0] == 1:  # one run: 2-D products (cheaper calls than batched ones)
-        j = jac[0]
-        if by_dots(j):
-            jtj, jtr = normal_rows(j.T, ev.residual[0])
-            assert jtr is not None  # (given the residuals)
-            return jtj[None], jtr[None]
-        return _gram_by_products(j)[None], ev.residual[0].dot(j)[None]
+        jtj, jtr = _normal_one(jac[0], ev.residual[0])
+        return jtj[None], jtr[None]
     return gram(jac), (jac.swapaxes(1, 2) @ ev.residual[:, :, None])[..., 0]
+
+
+def _normal_one(j: Array, r: Array) -> tuple[Array, Array]:
+    """Give ``J'J`` and ``J'r`` of a single run's ``J`` ``(n, p)`` and residual ``(n,)``."""
+    if by_dots(j):
+        jtj, jtr = normal_rows(j.T, r)
+        assert jtr is not None  # (given the residuals)
+        return jtj, jtr
+    return _gram_by_products(j), r.dot(j)
 
 
 @dataclass
@@ -113,6 +118,12 @@ class GaussNewtonModel:
     @classmethod
     def at(cls, ev: Evaluation, gtol: float, free: NDArray[np.bool_] | None) -> GaussNewtonModel:
         """Build the model at the evaluated points ``ev`` (over the ``free`` columns)."""
+        jac = ev.jacobian
+        if (free is None and ev.normal is None and jac is not None and jac.shape[0] == 1
+                and jac.shape[2] <= _DIRECT_EIGH):  # one run, every column: 2-D throughout
+            one = cls._one(*_normal_one(jac[0], ev.residual[0]), float(ev.cost[0]), gtol)
+            if one is not None:
+                return one
         jtj, grad = normal_equations(ev, free)
         if jtj.shape[0] == 1 and jtj.shape[1] <= _DIRECT_EIGH:
             one = cls._one(jtj[0], grad[0], float(ev.cost[0]), gtol)
@@ -130,19 +141,17 @@ class GaussNewtonModel:
     @classmethod
     def _one(cls, jtj: Array, grad: Array, cost: float, gtol: float) -> GaussNewtonModel | None:
         """Build a single run's model as :meth:`at` does, in 2-D arrays (fewer calls)."""
-        # the scale in floats (p is small): the same bits as in :meth:`at`
-        roots = [math.sqrt(max(d, 1e-300)) for d in jtj.diagonal().tolist()]
-        scale = np.array(roots)
+        scale = np.sqrt(np.maximum(jtj.diagonal(), 1e-300))  # (the same bits as in :meth:`at`)
         try:
             evals, v = eigh(jtj / np.multiply.outer(scale, scale))
         except np.linalg.LinAlgError:
             return None
         w = np.maximum(evals, 1e-12 * float(evals[-1]))  # floored as in :meth:`at`
         vg = (grad / scale).dot(v)
-        limit = gtol * math.sqrt(2.0 * cost)  # the gradient test in floats (p is small)
-        small = all(abs(g) <= limit * s for g, s in zip(grad.tolist(), roots, strict=True))
+        small = np.abs(grad) <= gtol * math.sqrt(2.0 * cost) * scale  # the gradient test
         return cls(w[None], v[None], vg[None], scale[None],
-                   np.array([0.5 * vg.dot(vg / w)]), np.array([small]), jtj[None], evals[None])
+                   np.array([0.5 * vg.dot(vg / w)]), small.all(keepdims=True), jtj[None],
+                   evals[None])
 
     def take(self, rows: NDArray[np.bool_]) -> GaussNewtonModel:
         """Keep the runs ``rows``."""

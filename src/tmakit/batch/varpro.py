@@ -381,22 +381,23 @@ class VarProProblem:
         elif self.has_angle:
             e = np.where(self.angle, wrap_angle(e), e)
         r = self.noise.whiten(e, overwrite=True)  # e is this function's own array
-        nu, jt, normal = nu_star, None, None
+        nu, jac, normal = nu_star, None, None
         if self.eliminates:
             assert at is not None  # (a nuisance to eliminate has its design)
             nu, r, jt = self._project(lin, nu_star, at, r, with_jacobian)
-        elif with_jacobian and (normal := motion_normal(self.obs, lin, r, self._weights)) is None:
-            jt = lin.jacobian(nu).swapaxes(-1, -2)
+            jac = None if jt is None else jt.swapaxes(1, 2)
+        elif with_jacobian and (lin.planar_jacobian is not None or (
+                normal := motion_normal(self.obs, lin, r, self._weights)) is None):
+            jac = lin.jacobian(nu)  # (a new array: whitened in place)
             if not lin.whitened:
-                jt = self.noise.whiten(jt, overwrite=True)
+                jac = self.noise.whiten(jac, axis=-2, overwrite=True)
         cost = 0.5 * np.einsum("bn,bn->b", r, r)
         if r.shape[0] == 1:  # one point: tested as a float (fewer calls)
             if not cost[0] < np.inf:
                 cost[0] = np.inf  # nan (no prediction) -> inf
         else:
             cost = np.where(cost < np.inf, cost, np.inf)  # nan (no prediction) -> inf
-        return Evaluation(theta, np.array(nu, dtype=float), r, cost,
-                          None if jt is None else jt.swapaxes(1, 2), normal)
+        return Evaluation(theta, np.array(nu, dtype=float), r, cost, jac, normal)
 
     def _project(self, lin: Linearisation, nu_star: Array, at: Array, r: Array,
                  with_jacobian: bool) -> tuple[Array, Array, Array | None]:

@@ -58,12 +58,14 @@ class AffineRows:
         self.planar_positions = self.p >= 2 and all(
             len(own) == 1 and own[0][0] == c and own[0][1] is None
             for c, own in enumerate(self.planar_terms[:2]))
-        #: ``(i, coef)`` when parameters ``i, i + 1`` are east and north times one coefficient
-        #: alone (velocities: ``dt``): their Jacobian rows are made by one product.
-        self.planar_scaled = _scaled_pair(self.planar_terms)
         #: ``(a, b, coef)`` when east and north are ``theta[a + c] + theta[b + c] * coef``
         #: (constant velocity): both made by one product and one sum (see :meth:`single`).
         self._planar_stack = _planar_stack(self._by_component[:2])
+        stack = self._planar_stack
+        #: ``(b, coef)`` when parameters ``b, b + 1`` enter east and north as ``coef`` times
+        #: them alone (the velocities): their Jacobian rows are made by one product.
+        self.planar_scaled = None if stack is None or len(self.planar_terms[stack[1]]) != 1 \
+            or len(self.planar_terms[stack[1] + 1]) != 1 else (stack[1], stack[2])
 
     @property
     def matrix(self) -> Array:
@@ -191,16 +193,6 @@ class AffineRows:
             return AffineRows(terms, _take_columns(self._base, rows), self.p,
                               np.take(self._sensor, rows, axis=0) if sensor is None else sensor)
         return AffineRows(terms, np.take(self.offset, rows, axis=1), self.p)
-
-
-def _scaled_pair(planar_terms: list[list[tuple[int, Array | None]]]) -> tuple[int, Array] | None:
-    """Find parameters ``i, i + 1`` whose only planar terms are east and north times one array."""
-    for i in range(len(planar_terms) - 1):
-        pair = planar_terms[i:i + 2]
-        if (all(len(own) == 1 and own[0][0] == c for c, own in enumerate(pair))
-                and pair[0][0][1] is not None and pair[1][0][1] is pair[0][0][1]):
-            return i, pair[0][0][1]
-    return None
 
 
 def _planar_stack(shapes: list[list[tuple[int, Array | None]]]) -> tuple[int, int, Array] | None:
