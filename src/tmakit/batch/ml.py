@@ -136,8 +136,8 @@ class MaximumLikelihood(BatchEstimator):
                theta0: NDArray[np.float64] | None) -> list[Best | Exception]:
         """Solve every data set from ``theta0``, else without a guess; errors per set."""
         if theta0 is not None:
-            sol = levenberg_marquardt(problem, ys, np.repeat(theta0, ys.shape[0], 0),
-                                      max_iter=self.max_iter)
+            starts = theta0 if ys.shape[0] == 1 else np.repeat(theta0, ys.shape[0], 0)
+            sol = levenberg_marquardt(problem, ys, starts, max_iter=self.max_iter)
             return [Best(sol.theta[i], sol.nuisance[i], float(sol.cost[i]),
                          int(sol.iterations[i]), bool(sol.converged[i]), 1,
                          information=information_of(problem, sol.evaluation, i,

@@ -220,6 +220,8 @@ DOMINANCE_MARGIN = 1.0
 """Cost margin (half a chi2 unit per unit) of the dominance test."""
 
 _STALL_WINDOW = 6  # iterations over which ``stall`` measures the decrease
+_ONE = np.ones(1, dtype=bool)  # a single run's mask (read only)
+_ONE.flags.writeable = False
 
 
 @dataclass
@@ -274,8 +276,10 @@ class _Runs:
         self.ids = np.arange(b)
         self.cur, self.u, self.nu_star, self.groups = out, u, nu_star, groups
         self.reached = reached  # per group, the lowest cost of a stopped run
-        self.lam = np.full(b, damping0)
-        self.grow = np.full(b, 2.0)  # Nielsen's factor for the damping after a failure
+        self.lam = np.empty(b)
+        self.lam.fill(damping0)
+        self.grow = np.empty(b)  # Nielsen's factor for the damping after a failure
+        self.grow.fill(2.0)
         self.rejected = np.zeros(b, dtype=np.int64)  # rejected steps in a row
         # costs after the last iterations, by run (a ring over _STALL_WINDOW + 1 slots)
         self.history = np.tile(out.cost, (_STALL_WINDOW + 1, 1)) if stall else None
@@ -473,7 +477,7 @@ def _stop_converged_or_dominated(runs: _Runs, rules: _Rules) -> None:
     if runs.reached is None and runs.ids.size == 1:  # one run: the test in floats
         if model.small_grad[0] or (float(model.decrement[0])
                                    <= rules.ftol * float(cur.cost[0]) + rules.dtol):
-            runs.stop(np.ones(1, dtype=bool), np.ones(1, dtype=bool))
+            runs.stop(_ONE, _ONE)
         return
     done = model.small_grad | (model.decrement <= rules.ftol * cur.cost + rules.dtol)
     beaten = None
@@ -523,7 +527,7 @@ def _after_step_one(runs: _Runs, trial: Evaluation, step: Array, predicted: floa
             runs.previous = (runs.cur.theta[0], runs.model.jtj[0])  # (read by _polished)
         runs.cur, runs.model = trial, None
     if tiny or float(runs.lam[0]) > 1e12:
-        runs.stop(np.ones(1, dtype=bool), np.array([tiny]))
+        runs.stop(_ONE, _ONE if tiny else ~_ONE)
 
 
 POLISH_AGREEMENT = 0.01
@@ -549,7 +553,7 @@ def _polished(problem: VarProProblem, runs: _Runs, rules: _Rules) -> bool:
     if not (drop > 0.0 and abs(drop - want) <= POLISH_AGREEMENT * want):
         return False
     runs.cur = trial  # the model (its J'J) stays that of the point the step left
-    runs.stop(np.ones(1, dtype=bool), np.ones(1, dtype=bool))
+    runs.stop(_ONE, _ONE)
     return True
 
 
