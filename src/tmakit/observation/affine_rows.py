@@ -44,6 +44,7 @@ class AffineRows:
         self.m = int(offset.shape[1])
         self._matrix: Array | None = None
         self._head_maps: dict[int, Array] = {}  # (see leading_map)
+        self._no_design: dict[tuple[int, ...], Array] = {}  # (see no_design)
         #: Per state component, its terms ``(parameter, coefficient)`` in parameter order.
         self._by_component: list[list[tuple[int, Array | None]]] = [[] for _ in range(6)]
         #: Per parameter, its terms ``(component, coefficient)`` of east and north (components
@@ -66,6 +67,13 @@ class AffineRows:
         #: them alone (the velocities): their Jacobian rows are made by one product.
         self.planar_scaled = None if stack is None or len(self.planar_terms[stack[1]]) != 1 \
             or len(self.planar_terms[stack[1] + 1]) != 1 else (stack[1], stack[2])
+
+    def no_design(self, batch: tuple[int, ...]) -> Array:
+        """Give the empty nuisance design ``(*batch, m, 0)`` of rows without nuisance."""
+        found = self._no_design.get(batch)
+        if found is None:
+            found = self._no_design[batch] = np.zeros((*batch, self.m, 0))
+        return found
 
     @property
     def matrix(self) -> Array:

@@ -8,7 +8,6 @@ components the kind uses, with the same operations as the general path.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -43,12 +42,10 @@ def planar_linearisation(obs: Any, theta: Array, weights: Array | None = None
     in_place = rel_map.planar_positions  # (else rows 0, 1 are overwritten before read)
     _chain_terms(rel_map, jac[:2] if in_place else jac[:2].copy(), jac, in_place)
     batch = theta.shape[:-1]
-    lin = Linearisation(obs, theta, None, np.zeros((*batch, rel_map.m, 0)))
-    lin.planar_values = lambda: model.planar_value(rel[0], rel[1]).reshape(*batch, rel_map.m)
+    lin = Linearisation(obs, theta, None, rel_map.no_design(batch))
+    lin.planar = (model, rel, weights)
     lin.planar_jacobian = jac.T.reshape(*batch, rel_map.m, rel_map.p)
-    lin.relative = rel.T.reshape(*batch, rel_map.m, 2)
     lin.planar_squared = squared
-    lin.planar_again = lambda: _jacobian_again(obs, theta, weights)
     lin.whitened = weights is not None
     return lin
 
@@ -205,21 +202,18 @@ class Linearisation:
         ``(..., n)`` and ``(..., n, k)``, SI.
     """
 
-    #: Makes :attr:`h0` on first use when made without it (the planar path: a bound needs the
-    #: derivatives alone).
-    planar_values: Callable[[], Array] | None = None
+    #: The planar path's kind model, relative east and north ``(2, m)`` and weights, from
+    #: which :attr:`h0` and :attr:`relative` are made on first use (a bound needs the
+    #: derivatives alone), or None.
+    planar: tuple[Any, Array, Array | None] | None = None
     d_h0: Array | None = None
     d_h0_ref: Array | None = None
-    #: The relative states ``(..., n, c)`` it was made from (east and north first; the planar
-    #: path makes these two alone), or None.
-    relative: Array | None = None
+    _relative: Array | None = None
     #: The Jacobian ``(..., n, p)`` made by the planar path (:mod:`.planar`), or None, handed
-    #: over on the first call of :meth:`jacobian` (the caller may scale it), then made again by
-    #: ``planar_again``.
+    #: over on the first call of :meth:`jacobian` (the caller may scale it), then made again.
     planar_jacobian: Array | None = None
     #: The planar path's squared east-north distances ``(m,)`` to the sensors, m^2.
     planar_squared: Array | None = None
-    planar_again: Callable[[], Array] | None = None
     _planar_given = False
     #: Whether the planar Jacobian is already whitened (made with the noise's weights).
     whitened = False
@@ -236,9 +230,23 @@ class Linearisation:
     def h0(self) -> Array:
         """The predictions at zero nuisance ``(..., n)``, SI."""
         if self._h0 is None:
-            assert self.planar_values is not None  # (made without h0 by the planar path)
-            self._h0 = self.planar_values()
+            assert self.planar is not None  # (made without h0 by the planar path)
+            model, rel, _ = self.planar
+            self._h0 = model.planar_value(rel[0], rel[1]).reshape(*self.theta.shape[:-1],
+                                                                   rel.shape[1])
         return self._h0
+
+    @property
+    def relative(self) -> Array | None:
+        """The relative states ``(..., n, c)`` it was made from, or None (planar: east, north)."""
+        if self._relative is None and self.planar is not None:
+            rel = self.planar[1]
+            self._relative = rel.T.reshape(*self.theta.shape[:-1], rel.shape[1], 2)
+        return self._relative
+
+    @relative.setter
+    def relative(self, value: Array | None) -> None:
+        self._relative = value
 
     def jacobian(self, nuisance: Array, with_h0: bool = True) -> Array:
         """Return ``d predictions / d theta`` ``(..., n, p)`` at nuisance values.
@@ -262,8 +270,8 @@ class Linearisation:
         if self.planar_jacobian is not None:  # no nuisance: the Jacobian itself, a new array once
             if not with_h0:
                 return np.zeros_like(self.planar_jacobian)
-            if self._planar_given and self.planar_again is not None:
-                return self.planar_again()
+            if self._planar_given and self.planar is not None:
+                return _jacobian_again(self.obs, self.theta, self.planar[2])
             self._planar_given = True
             return self.planar_jacobian
         if self.d_h0 is None:
