@@ -148,10 +148,9 @@ class GaussNewtonModel:
             return None
         w = np.maximum(evals, 1e-12 * float(evals[-1]))  # floored as in :meth:`at`
         vg = (grad / scale).dot(v)
-        small = np.abs(grad) <= gtol * math.sqrt(2.0 * cost) * scale  # the gradient test
+        small = bool((np.abs(grad) <= gtol * math.sqrt(2.0 * cost) * scale).all())
         return cls(w[None], v[None], vg[None], scale[None],
-                   np.array([0.5 * vg.dot(vg / w)]), small.all(keepdims=True), jtj[None],
-                   evals[None])
+                   np.array([0.5 * vg.dot(vg / w)]), np.array([small]), jtj[None], evals[None])
 
     def take(self, rows: NDArray[np.bool_]) -> GaussNewtonModel:
         """Keep the runs ``rows``."""
