@@ -125,3 +125,7 @@ def test_affine_rows_single_equals_the_dense_product_and_the_motion_model(dim):
         assert np.allclose(batch, want, rtol=1e-13, atol=1e-9)
         sub = rows.take(np.array([3, 7, 7, 20]))
         assert np.array_equal(sub.single(theta), one[[3, 7, 7, 20]])
+        # east and north alone (constant velocity: both rows by one product and one sum) are
+        # the same bits as term by term
+        assert np.array_equal(rows.single(theta, components=2), one.T[:2])
+        assert np.array_equal(sub.single(theta, components=2), one[[3, 7, 7, 20]].T[:2])
