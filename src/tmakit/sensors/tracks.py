@@ -13,8 +13,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..motion.curvilinear import propagate_curvilinear
-
 
 def _as_times(t: ArrayLike) -> NDArray[np.float64]:
     t = np.atleast_1d(np.asarray(t, dtype=float))
@@ -180,8 +178,7 @@ class LegsTrack(SensorTrack):
             v = leg.speed if leg.speed is not None else v
             starts.append((t0, x, y, v, c))
             if np.isfinite(leg.duration):
-                x, y, v, c, _, _ = (float(a) for a in propagate_curvilinear(
-                    x, y, v, c, 0.0, leg.turn_rate * v, leg.duration))
+                x, y, c = (float(a) for a in _arc(x, y, v, c, leg.turn_rate, leg.duration))
                 t0 += leg.duration
         self._starts = np.array(starts)
         self._rates = np.array([leg.turn_rate for leg in self.legs])
@@ -196,12 +193,26 @@ class LegsTrack(SensorTrack):
         t = _as_times(t)
         idx = np.clip(np.searchsorted(self._starts[:, 0], t, side="right") - 1, 0, None)
         t0, x0, y0, v, c = self._starts[idx].T
-        x, y, _, _, vx, vy = propagate_curvilinear(x0, y0, v, c, 0.0, self._rates[idx] * v,
-                                                   t - t0)
+        x, y, course = _arc(x0, y0, v, c, self._rates[idx], t - t0)
         out = np.zeros((t.shape[0], 6))
         out[:, 0], out[:, 1], out[:, 2] = x, y, self.start[2]
-        out[:, 3], out[:, 4] = vx, vy
+        out[:, 3], out[:, 4] = v * np.sin(course), v * np.cos(course)
         return out
+
+
+def _arc(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike, rate: ArrayLike,
+         dt: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Give ``x, y, course`` after ``dt`` on an arc at constant speed and turn rate.
+
+    The curvilinear motion of Hörst & Oispuu (2010), eq. 1, with no tangential acceleration,
+    in closed form: the chord is ``speed dt sinc`` of half the turn, along the mean course.
+    (Not the compiled kernel of :mod:`tmakit.motion.curvilinear`: a scenario's own ship then
+    simulates without loading numba.)
+    """
+    half = 0.5 * np.multiply(rate, dt)
+    chord = np.multiply(speed, dt) * np.sinc(half / np.pi)
+    mid = np.add(course, half)
+    return np.add(x, chord * np.sin(mid)), np.add(y, chord * np.cos(mid)), mid + half
 
 
 class WaypointTrack(SensorTrack):
