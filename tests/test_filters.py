@@ -21,6 +21,7 @@ from tmakit.filters import (
 )
 from tmakit.filters.general import SCALAR_ROWS, PreparedMeasurements, plan_for
 from tmakit.filters.particle import systematic_resample
+from tmakit.motion.dynamics import NearlyConstantVelocity
 
 NUISANCE = {"carrier": 9.4e9, "power_constant_db": -30.0}
 KINDS8 = ("bearing", "elevation", "azimuth_rate", "range", "range_rate", "frequency", "power",
@@ -343,6 +344,27 @@ def test_particle_filter_is_reproducible_for_a_seed():
     assert np.array_equal(a.states, b.states) and np.array_equal(a.covariances, b.covariances)
     assert np.array_equal(a.log_likelihood, b.log_likelihood)
     assert not np.allclose(a.states, c.states)
+
+
+def test_particle_filter_with_a_noise_density_draws_numpys_normals():
+    # Its move is compiled and numba draws the normals from the same Generator: the cloud
+    # moves by exactly what rng.standard_normal((2, dim, N)) would have drawn.
+    q_density, dt, n = 0.05, 2.0, 3000
+    pf = ParticleFilter(np.array([1000.0, 2000.0, 3.0, -1.0]),
+                        np.diag([100.0**2, 100.0**2, 2.0**2, 2.0**2]), 0.0, particles=n,
+                        rng=4, dynamics=NearlyConstantVelocity(2, 0.0, q_density))
+    before, rng = pf.particles, np.random.default_rng()
+    rng.bit_generator.state = pf.rng.bit_generator.state
+    pf.predict(dt)
+    w = rng.standard_normal((2, 2, n))
+    l11 = np.sqrt(q_density * dt**3 / 3)
+    l21 = q_density * dt**2 / 2 / l11
+    l22 = np.sqrt(q_density * dt - l21**2)
+    expected = before.copy()
+    expected[:, :2] += dt * before[:, 2:] + l11 * w[0].T
+    expected[:, 2:] += l21 * w[0].T + l22 * w[1].T
+    assert np.allclose(pf.particles, expected, rtol=1e-12, atol=1e-9)
+    assert pf.rng.bit_generator.state == rng.bit_generator.state
 
 
 def test_systematic_resampling_and_regularisation():
