@@ -12,7 +12,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..bounds.pcrb import deterministic_pcrb, posterior_crb
 from ..data import MeasurementSet
 from ..filters import Track
 from ..filters.gaussian_sum import SumStep
@@ -166,6 +165,8 @@ def track_pcrb(meas: MeasurementSet, tr: Track, truth: ArrayLike | None = None, 
     ----------
     Hurtado & Nehorai (2008), eqs. 10-11; Tichavský, Muravchik & Nehorai (1998).
     """
+    from ..bounds.pcrb import deterministic_pcrb, posterior_crb  # (not loaded by tk.track)
+
     start = start_record(tr)
     if start is None:
         return None, "PCRB not available (the track does not say how it started)"
