@@ -21,77 +21,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.arrays import Array
 from ..core.frames import wrap_angle
-from .tracks import SensorTrack
+from .tracks import SensorTrack, propagate_constant_turn
 
 Index = int | slice | Sequence[int] | NDArray[np.integer] | NDArray[np.bool_]
 
-_SERIES_BELOW = 0.25  # |w s| below this: E1, E2 from their power series (closed form above
-#                       loses at most eps / 0.25^2 ~ 4e-15 relative to cancellation)
-_SERIES_TERMS = 17    # 0.25**17 / 17! ~ 2e-25: far below rounding
-_E1_COEFF = [1.0 / math.factorial(n + 1) for n in range(_SERIES_TERMS)]
-_E2_COEFF = [1.0 / (math.factorial(n) * (n + 2)) for n in range(_SERIES_TERMS)]
 _LIMIT_TOL = 1e-9     # relative: a clip smaller than this is rounding, not a limit
 _TIME_TOL = 1e-9      # relative tolerance on times at the ends of a step or track
 
 
 def _arr(a: ArrayLike) -> Array:
     return np.asarray(a, dtype=float)
-
-
-def _turn_factors(z: NDArray[np.complex128]) -> tuple[NDArray[np.complex128], ...]:
-    """``E1(z) = (e^z - 1) / z`` and ``E2(z) = (e^z (z - 1) + 1) / z^2``, stable at 0."""
-    shape = np.shape(z)
-    z = np.atleast_1d(z)
-    e1 = np.empty_like(z)
-    e2 = np.empty_like(z)
-    small = np.abs(z) < _SERIES_BELOW
-    every = bool(small.all())
-    if every or small.any():                    # Horner on the power series
-        zs = z if every else z[small]
-        s1 = np.full_like(zs, _E1_COEFF[-1])
-        s2 = np.full_like(zs, _E2_COEFF[-1])
-        for c1, c2 in zip(_E1_COEFF[-2::-1], _E2_COEFF[-2::-1], strict=True):
-            s1 *= zs    # in place: the same values as s1 * zs + c1, no temporaries
-            s1 += c1
-            s2 *= zs
-            s2 += c2
-        if every:
-            return s1.reshape(shape), s2.reshape(shape)
-        e1[small], e2[small] = s1, s2
-    if not every:
-        large = ~small
-        zl = z[large]
-        ez = np.exp(zl)
-        e1[large] = (ez - 1.0) / zl
-        e2[large] = (ez * (zl - 1.0) + 1.0) / zl**2
-    return e1.reshape(shape), e2.reshape(shape)
-
-
-def propagate_constant_turn(position: ArrayLike, heading: ArrayLike, speed: ArrayLike,
-                            climb_rate: ArrayLike, turn_rate: ArrayLike,
-                            acceleration: ArrayLike, dt: ArrayLike) -> Array:
-    """Return sensor states (..., 6) after ``dt`` s at constant turn rate and acceleration."""
-    pos = _arr(position)
-    if pos.ndim == 0 or pos.shape[-1] not in (2, 3):
-        raise ValueError(f"position must end in 2 or 3 ENU coordinates (m), got {pos.shape}")
-    if pos.shape[-1] == 2:
-        pos = np.concatenate([pos, np.zeros((*pos.shape[:-1], 1))], axis=-1)
-    # no broadcast_arrays: the arithmetic broadcasts (the same values, fewer array views)
-    psi0, v0, c, w, a, s = (_arr(q) for q in (
-        heading, speed, climb_rate, turn_rate, acceleration, dt))
-    e1, e2 = _turn_factors(np.asarray(1j * w * s, dtype=np.complex128))
-    rot0 = np.exp(1j * psi0)
-    disp = rot0 * s * (v0 * e1 + a * s * e2)
-    vel = (v0 + a * s) * np.exp(1j * (psi0 + w * s))
-    shape = np.broadcast_shapes(pos.shape[:-1], *(q.shape for q in (psi0, v0, c, w, a, s)))
-    out = np.empty((*shape, 6))
-    out[..., 0] = pos[..., 0] + disp.imag
-    out[..., 1] = pos[..., 1] + disp.real
-    out[..., 2] = pos[..., 2] + c * s
-    out[..., 3] = vel.imag
-    out[..., 4] = vel.real
-    out[..., 5] = c
-    return out
 
 
 @dataclass(frozen=True, eq=False)

@@ -6,12 +6,75 @@ Every track answers :meth:`SensorTrack.states` with ENU positions (m) and veloci
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+_SERIES_BELOW = 0.25  # |w s| below this: E1, E2 from their power series (closed form above
+#                       loses at most eps / 0.25^2 ~ 4e-15 relative to cancellation)
+_SERIES_TERMS = 17    # 0.25**17 / 17! ~ 2e-25: far below rounding
+_E1_COEFF = [1.0 / math.factorial(n + 1) for n in range(_SERIES_TERMS)]
+_E2_COEFF = [1.0 / (math.factorial(n) * (n + 2)) for n in range(_SERIES_TERMS)]
+
+
+def _turn_factors(z: NDArray[np.complex128]) -> tuple[NDArray[np.complex128], ...]:
+    """``E1(z) = (e^z - 1) / z`` and ``E2(z) = (e^z (z - 1) + 1) / z^2``, stable at 0."""
+    shape = np.shape(z)
+    z = np.atleast_1d(z)
+    e1 = np.empty_like(z)
+    e2 = np.empty_like(z)
+    small = np.abs(z) < _SERIES_BELOW
+    every = bool(small.all())
+    if every or small.any():                    # Horner on the power series
+        zs = z if every else z[small]
+        s1 = np.full_like(zs, _E1_COEFF[-1])
+        s2 = np.full_like(zs, _E2_COEFF[-1])
+        for c1, c2 in zip(_E1_COEFF[-2::-1], _E2_COEFF[-2::-1], strict=True):
+            s1 *= zs    # in place: the same values as s1 * zs + c1, no temporaries
+            s1 += c1
+            s2 *= zs
+            s2 += c2
+        if every:
+            return s1.reshape(shape), s2.reshape(shape)
+        e1[small], e2[small] = s1, s2
+    if not every:
+        large = ~small
+        zl = z[large]
+        ez = np.exp(zl)
+        e1[large] = (ez - 1.0) / zl
+        e2[large] = (ez * (zl - 1.0) + 1.0) / zl**2
+    return e1.reshape(shape), e2.reshape(shape)
+
+
+def propagate_constant_turn(position: ArrayLike, heading: ArrayLike, speed: ArrayLike,
+                            climb_rate: ArrayLike, turn_rate: ArrayLike,
+                            acceleration: ArrayLike, dt: ArrayLike) -> NDArray[np.float64]:
+    """Return sensor states (..., 6) after ``dt`` s at constant turn rate and acceleration."""
+    pos = np.asarray(position, dtype=float)
+    if pos.ndim == 0 or pos.shape[-1] not in (2, 3):
+        raise ValueError(f"position must end in 2 or 3 ENU coordinates (m), got {pos.shape}")
+    if pos.shape[-1] == 2:
+        pos = np.concatenate([pos, np.zeros((*pos.shape[:-1], 1))], axis=-1)
+    # no broadcast_arrays: the arithmetic broadcasts (the same values, fewer array views)
+    psi0, v0, c, w, a, s = (np.asarray(q, dtype=float) for q in (
+        heading, speed, climb_rate, turn_rate, acceleration, dt))
+    e1, e2 = _turn_factors(np.asarray(1j * w * s, dtype=np.complex128))
+    rot0 = np.exp(1j * psi0)
+    disp = rot0 * s * (v0 * e1 + a * s * e2)
+    vel = (v0 + a * s) * np.exp(1j * (psi0 + w * s))
+    shape = np.broadcast_shapes(pos.shape[:-1], *(q.shape for q in (psi0, v0, c, w, a, s)))
+    out = np.empty((*shape, 6))
+    out[..., 0] = pos[..., 0] + disp.imag
+    out[..., 1] = pos[..., 1] + disp.real
+    out[..., 2] = pos[..., 2] + c * s
+    out[..., 3] = vel.imag
+    out[..., 4] = vel.real
+    out[..., 5] = c
+    return out
 
 
 def _as_times(t: ArrayLike) -> NDArray[np.float64]:
@@ -178,7 +241,9 @@ class LegsTrack(SensorTrack):
             v = leg.speed if leg.speed is not None else v
             starts.append((t0, x, y, v, c))
             if np.isfinite(leg.duration):
-                x, y, c = (float(a) for a in _arc(x, y, v, c, leg.turn_rate, leg.duration))
+                end = propagate_constant_turn([x, y, 0.0], c, v, 0.0, leg.turn_rate, 0.0,
+                                              leg.duration)
+                x, y, c = float(end[0]), float(end[1]), c + leg.turn_rate * leg.duration
                 t0 += leg.duration
         self._starts = np.array(starts)
         self._rates = np.array([leg.turn_rate for leg in self.legs])
@@ -193,26 +258,9 @@ class LegsTrack(SensorTrack):
         t = _as_times(t)
         idx = np.clip(np.searchsorted(self._starts[:, 0], t, side="right") - 1, 0, None)
         t0, x0, y0, v, c = self._starts[idx].T
-        x, y, course = _arc(x0, y0, v, c, self._rates[idx], t - t0)
-        out = np.zeros((t.shape[0], 6))
-        out[:, 0], out[:, 1], out[:, 2] = x, y, self.start[2]
-        out[:, 3], out[:, 4] = v * np.sin(course), v * np.cos(course)
-        return out
+        position = np.stack([x0, y0, np.full_like(x0, self.start[2])], axis=-1)
+        return propagate_constant_turn(position, c, v, 0.0, self._rates[idx], 0.0, t - t0)
 
-
-def _arc(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike, rate: ArrayLike,
-         dt: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Give ``x, y, course`` after ``dt`` on an arc at constant speed and turn rate.
-
-    The curvilinear motion of Hörst & Oispuu (2010), eq. 1, with no tangential acceleration,
-    in closed form: the chord is ``speed dt sinc`` of half the turn, along the mean course.
-    (Not the compiled kernel of :mod:`tmakit.motion.curvilinear`: a scenario's own ship then
-    simulates without loading numba.)
-    """
-    half = 0.5 * np.multiply(rate, dt)
-    chord = np.multiply(speed, dt) * np.sinc(half / np.pi)
-    mid = np.add(course, half)
-    return np.add(x, chord * np.sin(mid)), np.add(y, chord * np.cos(mid)), mid + half
 
 
 class WaypointTrack(SensorTrack):
