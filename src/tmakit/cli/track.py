@@ -81,6 +81,10 @@ TurnRateOption = Annotated[str | None, typer.Option(
                         "positive, a right turn negative) of coordinated-turn models added "
                         "after the --model-q ones; default +-0.375,0.75,1.5,3 (a slow ship's "
                         "turn to an aircraft's standard-rate turn); none for no turn model")]
+RateNoiseOption = Annotated[str | None, typer.Option(
+    "--turn-rate-noise", help="--filter imm: add a coordinated turn whose rate is estimated "
+                              "(Li & Jilkov 2003), its rate's random walk in deg/s per "
+                              "sqrt(s); none (the default) for no such model")]
 PriorTimeOption = Annotated[float | None, typer.Option(
     help="time of the prior (s); default: the first measurement time")]
 NuisanceOption = Annotated[str | None, typer.Option(
@@ -122,7 +126,8 @@ def track(
     q_density: QDensityOption = "0", range_prior: RangePriorOption = None,
     speed_prior: SpeedPriorOption = None, height_prior: HeightPriorOption = None,
     component: ComponentOption = "ekf", model_q: ModelQOption = None, transition:
-    TransitionOption = None, turn_rate: TurnRateOption = None, smooth: SmoothOption = False,
+    TransitionOption = None, turn_rate: TurnRateOption = None,
+    turn_rate_noise: RateNoiseOption = None, smooth: SmoothOption = False,
     lag: LagOption = None, sums: SumsOption = False, particles: ParticlesOption = None,
     seed: SeedOption = None, prior: Annotated[str | None, typer.Option(
         help="start from this state instead of a batch estimate, e.g. "
@@ -173,7 +178,7 @@ def track(
                           (prior, prior_std, nuisance, prior_time),
                           (range_prior, speed_prior, height_prior), init_window, start_std,
                           (particles, seed, component, smooth or lag is not None or sums,
-                           (model_q, transition, turn_rate)),
+                           (model_q, transition, turn_rate, turn_rate_noise)),
                           filter_name, options))
     name, say = Path(" + ".join(map(str, files))), err if as_json else out
     if follow:
@@ -419,8 +424,10 @@ def start_sentence(tr: Any) -> str:
                  f"on {check['dof']} dof, p = {check['p_value']:.2g})")
     for r in s.get("rejected", []):
         text += (f"; rejected first: the window of {r['window']} times (t <= {r['time']:g} s), "
-                 f"NIS {r['nis']:.1f} on {r['dof']} dof over the next {r['updates']} updates "
-                 f"(p = {r['p_value']:.2g})")
+                 + (f"position std {r['relative_position_std']:.1%} of the range by its "
+                    "profile likelihood" if "nis" not in r else
+                    f"NIS {r['nis']:.1f} on {r['dof']} dof over the next {r['updates']} updates "
+                    f"(p = {r['p_value']:.2g})"))
     return text
 
 
@@ -558,7 +565,8 @@ def parse_bearing_prior(range_prior: str | None, speed_prior: float | None,
 
 def component_settings(filter_name: str, component: str, smooth: bool = False,
                        model_q: str | None = None, transition: str | None = None,
-                       turn_rate: str | None = None) -> dict[str, object]:
+                       turn_rate: str | None = None, turn_rate_noise: str | None = None
+                       ) -> dict[str, object]:
     """Give the filter's settings from ``--component``, ``--smooth`` and the IMM's options."""
     from ..filters.gaussian_sum import COMPONENTS
 
@@ -566,6 +574,8 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
         raise fail(f"--component {component!r}: expected one of {', '.join(COMPONENTS)}")
     if filter_name not in ("imm", "mmpf") and (model_q, transition, turn_rate) != (None,) * 3:
         raise fail("--model-q, --transition and --turn-rate apply only to --filter imm and mmpf")
+    if filter_name != "imm" and turn_rate_noise is not None:
+        raise fail("--turn-rate-noise applies only to --filter imm")
     if filter_name not in ("gsf", "imm"):
         if component != "ekf":
             raise fail("--component applies only to --filter gsf and imm (their component filter)")
@@ -587,6 +597,8 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
         except ValueError:
             raise fail(f"--turn-rate {turn_rate!r}: expected turn rates (deg/s) separated by "
                        "commas, or none") from None
+    if turn_rate_noise is not None:
+        out["rate_noise"] = rate_noise_setting(turn_rate_noise)
     if transition is not None:
         try:
             out["transition"] = [[float(v) for v in row.split(",")]
@@ -595,6 +607,20 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
             raise fail(f"--transition {transition!r}: expected rows of probabilities, "
                        "e.g. 0.95,0.05;0.05,0.95") from None
     return out
+
+
+def rate_noise_setting(text: str) -> float | None:
+    """Give ``--turn-rate-noise`` in rad/s per sqrt(s) (``None``: no estimated-rate turn)."""
+    if text.strip().lower() == "none":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0):
+        raise fail(f"--turn-rate-noise {text!r}: expected a turn rate's random walk >= 0 "
+                   "(deg/s per sqrt(s)), or none")
+    return math.radians(value)
 
 
 def smoothed_track(tr: Any, lag: int | None, keep_history: bool = False) -> Any:

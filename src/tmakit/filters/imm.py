@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..core.linalg import symmetrise
-from ..motion.dynamics import CoordinatedTurn, NearlyConstantVelocity
+from ..motion.dynamics import CoordinatedTurn, NearlyConstantVelocity, UnknownRateTurn
 from ..observation.groups import MeasurementGroup
 from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
 from .ekf import ExtendedKalmanFilter
@@ -40,6 +40,11 @@ TURN_RATES_DEG = (0.375, 0.75, 1.5, 3.0)
 #: the bank's rates is followed by mixing the two models (0.15 measured no better on
 #: hoerst2010, docs/tracking.md).
 TURN_Q = 0.05
+#: The turn-rate model's random walk (rad/s per sqrt(s), :class:`UnknownRateTurn`): ... (tuned
+#: below) ... and the std of its turn rate at the start (rad/s): a ship's or an aircraft's
+#: standard-rate turn (3 deg/s) lies within 2 sigma.
+RATE_NOISE = None
+RATE_STD = math.radians(1.5)
 #: Mean time (s) the target holds one motion, a straight leg or a turn, before it changes to
 #: another (any other alike): legs and turns of minutes, as a contact is tracked for tens of
 #: minutes. The Markov chain is in continuous time: its matrix for a step follows from the
@@ -127,6 +132,13 @@ class InteractingMultipleModel(TrackingFilter):
         to the left and to the right.
     turn_q : float, optional
         Acceleration std of the turn models (m/s^2).
+    rate_noise : float or None, optional
+        With a value, a coordinated turn whose rate is estimated (:class:`UnknownRateTurn`,
+        its rate's random walk in rad/s per sqrt(s)) is a model too, after the ``model_q``
+        models and before the fixed-rate turns; its rate starts at 0 with std ``rate_std``.
+        Default :data:`RATE_NOISE`; ``None``: no such model.
+    rate_std : float, optional
+        The std of the turn rate at the start (rad/s, :data:`RATE_STD`).
     sojourn : float, optional
         Mean stay (s) in a model, for the default chain (:data:`SOJOURN`).
     probabilities : array_like, optional
@@ -148,25 +160,31 @@ class InteractingMultipleModel(TrackingFilter):
 
     name = "imm"
     start_relative_std = START_RELATIVE_STD
+    start_by_likelihood = True  # judged by the batch start's covariance widened to its likelihood
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  component: str = "ekf", iterations: int = 1,
                  model_q: Sequence[float] = (),
                  transition: ArrayLike | None = None,
                  turn_rates: Sequence[float] | None = None, turn_q: float = TURN_Q,
+                 rate_noise: float | None = RATE_NOISE, rate_std: float = RATE_STD,
                  sojourn: float = SOJOURN,
                  probabilities: ArrayLike | None = None, history: bool = False,
                  q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
                  options: KindOptions | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
         check_component(component)
+        if not (isinstance(rate_std, (int, float)) and math.isfinite(rate_std) and rate_std > 0):
+            raise ValueError(f"rate_std must be a turn rate's std > 0 (rad/s); got {rate_std!r}")
+        self.rate_noise, self.rate_std = rate_noise, float(rate_std)
         extra, rates, self.chain, self._mu0 = markov_chain(model_q, transition, turn_rates,
-                                                           turn_q, sojourn, probabilities)
+                                                           turn_q, sojourn, probabilities,
+                                                           rate_noise)
         self.component = component
         self.model_q = tuple(extra)
         super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
                          nuisance=nuisance)
-        self.models = model_bank(self.dynamics, extra, rates, turn_q)
+        self.models = model_bank(self.dynamics, extra, rates, turn_q, rate_noise)
         if component != "ekf" and iterations != 1:
             raise ValueError(f"iterations apply to EKF components; got {iterations} with "
                              f"{component!r}")
@@ -176,7 +194,8 @@ class InteractingMultipleModel(TrackingFilter):
         self.iterations = self._unit.iterations
         self.probability_history: list[list[float]] = []
         #: Each update's models and rows (with ``history=True``), for :func:`imm_smooth`.
-        self.history = ModelHistory(self.models, self._unit, []) if history else None
+        self.history = ModelHistory(self.models, self._unit, [],
+                                    self.rate_std) if history else None
         self._switch = self.chain.matrix(0.0)
 
     @property
@@ -189,6 +208,8 @@ class InteractingMultipleModel(TrackingFilter):
         self._mu = self._mu0.copy()
         self._m = np.repeat(mean[None], count, axis=0)
         self._p = np.repeat(covariance[None], count, axis=0)
+        if self.rate_noise is not None:  # every model carries the rate; only its own uses it
+            self._m, self._p = with_rate(self._m, self._p, self.rate_std)
 
     @property
     def probabilities(self) -> Array:
@@ -197,18 +218,28 @@ class InteractingMultipleModel(TrackingFilter):
 
     @property
     def model_states(self) -> tuple[Array, Array]:
-        """Each model's mean ``(M, n)`` and covariance ``(M, n, n)`` (copies)."""
-        return self._m.copy(), self._p.copy()
+        """Each model's mean ``(M, n)`` and covariance ``(M, n, n)`` (copies; no turn rate)."""
+        n = self.dynamics.n_state
+        return self._m[:, :n].copy(), self._p[:, :n, :n].copy()
+
+    @property
+    def turn_rate(self) -> tuple[float, float] | None:
+        """The estimated-rate turn's rate and std now (rad/s); ``None`` without that model."""
+        j = next((j for j, m in enumerate(self.models) if isinstance(m, UnknownRateTurn)), None)
+        if j is None:
+            return None
+        return float(self._m[j, -1]), float(math.sqrt(max(self._p[j, -1, -1], 0.0)))
 
     @property
     def state(self) -> Array:
         """The combined mean ``(n,)`` (m, m/s)."""
-        return self._mu @ self._m
+        return self._mu @ self._m[:, :self.dynamics.n_state]
 
     @property
     def covariance(self) -> Array:
         """The combined covariance ``(n, n)``."""
-        return mixture_moments(self._mu, self._m, self._p)[1]
+        n = self.dynamics.n_state
+        return mixture_moments(self._mu, self._m[:, :n], self._p[:, :n, :n])[1]
 
     def _predict(self, dt: float) -> None:
         pij = self._switch = self.chain.matrix(dt)
@@ -218,16 +249,20 @@ class InteractingMultipleModel(TrackingFilter):
             w = pij[:, j] * self._mu
             total = float(w.sum())
             w = w / total if total > 0 else np.full_like(w, 1.0 / w.shape[0])
-            mean, cov = mixture_moments(w, self._m, self._p)
-            phi = model.transition(dt)
-            mixed_m[j] = phi @ mean
-            mixed_p[j] = phi @ cov @ phi.T + model.noise(dt)
-            mixed_p[j] = 0.5 * (mixed_p[j] + mixed_p[j].T)
+            mean, cov = mix_into(j, self.models, w, self._m, self._p)
+            moved, jac = model.propagate(mean, dt)
+            k = moved.shape[0]
+            if k < mixed_m.shape[1]:  # a model without the rate keeps its place holder
+                mixed_m[j], mixed_p[j] = self._m[j], self._p[j]
+            mixed_m[j, :k] = moved
+            p = jac @ cov @ jac.T + model.noise(dt)
+            mixed_p[j, :k, :k] = 0.5 * (p + p.T)
         self._m, self._p = mixed_m, mixed_p
         self._mu = c / c.sum()
 
     def _update(self, group: MeasurementGroup) -> UpdateInfo:
-        log_l, nis, dof = update_components(self._unit, group, self._m, self._p, self._mu)
+        log_l, nis, dof = update_models(self._unit, group, self.models, self._m, self._p,
+                                        self._mu)
         ok = np.flatnonzero(np.isfinite(log_l))
         if ok.shape[0] == 0:
             self._record(None)
@@ -279,6 +314,7 @@ class MultipleModelParticleFilter(ParticleFilter):
 
     name = "mmpf"
     start_relative_std = START_RELATIVE_STD
+    start_by_likelihood = True  # judged by the batch start's covariance widened to its likelihood
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  model_q: Sequence[float] = (), transition: ArrayLike | None = None,
@@ -372,6 +408,7 @@ class ModelHistory:
     models: list[NearlyConstantVelocity]
     unit: ExtendedKalmanFilter
     steps: list[ModelStep]
+    rate_std: float = RATE_STD  # the turn rate's std at the start (rad/s)
 
 
 @dataclass(frozen=True)
@@ -384,7 +421,7 @@ class LabelledStep(ParticleStep):
 
 def markov_chain(model_q: Sequence[float], transition: ArrayLike | None,
                  turn_rates: Sequence[float] | None, turn_q: float, sojourn: float,
-                 probabilities: ArrayLike | None
+                 probabilities: ArrayLike | None, rate_noise: float | None = None
                  ) -> tuple[list[float], list[float], MarkovChain, Array]:
     """Check the model options; give the extra q's, turn rates, Markov chain and prior."""
     extra = [float(v) for v in np.atleast_1d(np.asarray(model_q, dtype=float))]
@@ -397,7 +434,11 @@ def markov_chain(model_q: Sequence[float], transition: ArrayLike | None,
         raise ValueError(f"turn_rates must be finite and != 0 (rad/s); got {rates}")
     if not (math.isfinite(turn_q) and turn_q >= 0):
         raise ValueError(f"turn_q must be an acceleration >= 0 (m/s^2); got {turn_q}")
-    count = 1 + len(extra) + len(rates)
+    if rate_noise is not None and not (isinstance(rate_noise, (int, float))
+                                       and math.isfinite(rate_noise) and rate_noise >= 0):
+        raise ValueError(f"rate_noise must be a turn rate's random walk >= 0 (rad/s per "
+                         f"sqrt(s)), or None for no estimated-rate turn; got {rate_noise!r}")
+    count = 1 + len(extra) + (rate_noise is not None) + len(rates)
     chain = MarkovChain(count, transition, sojourn)
     mu = (np.full(count, 1.0 / count) if probabilities is None
           else np.asarray(probabilities, dtype=float).reshape(-1))
@@ -409,16 +450,81 @@ def markov_chain(model_q: Sequence[float], transition: ArrayLike | None,
 
 
 def model_bank(dynamics: NearlyConstantVelocity, extra: Sequence[float],
-               rates: Sequence[float], turn_q: float) -> list[NearlyConstantVelocity]:
-    """Give the models: ``dynamics``, then its ``extra`` q's, then the turns at ``rates``."""
+               rates: Sequence[float], turn_q: float, rate_noise: float | None = None
+               ) -> list[NearlyConstantVelocity]:
+    """Give the models: ``dynamics``, its ``extra`` q's, the estimated-rate turn, the turns."""
     if type(dynamics) is not NearlyConstantVelocity:
         raise ValueError("the IMM filter's models are NearlyConstantVelocity dynamics")
     base_q, density = dynamics.axes()
+    turn_axes = tuple(float(max(turn_q, b)) for b in base_q)
     return [dynamics] + [
         NearlyConstantVelocity(dynamics.dim, tuple(float(max(v, b)) for b in base_q),
                                tuple(density)) for v in extra] + [
+        UnknownRateTurn(dynamics.dim, turn_axes, tuple(density), rate_noise=float(rate_noise))
+        for _ in range(rate_noise is not None)] + [
         CoordinatedTurn(dynamics.dim, tuple(float(max(turn_q, b)) for b in base_q),
                         tuple(density), turn_rate=w) for w in rates]
+
+
+def with_rate(means: Array, covs: Array, rate_std: float) -> Array:
+    """Give the models' Gaussians ``(M, n)``, ``(M, n, n)`` with a turn rate ``0 +- rate_std``."""
+    count = means.shape[0]
+    out_p = np.pad(covs, ((0, 0), (0, 1), (0, 1)))
+    out_p[:, -1, -1] = rate_std**2
+    return np.concatenate([means, np.zeros((count, 1))], axis=1), out_p
+
+
+def mix_into(j: int, models: Sequence[NearlyConstantVelocity], weights: Array, means: Array,
+             covs: Array) -> tuple[Array, Array]:
+    """Give the mixture of the models' Gaussians with ``weights`` in model ``j``'s state.
+
+    A model without a turn rate mixes the others' position and velocity. Into the
+    estimated-rate turn, a model without the rate brings the turn model's own estimate of it
+    (mean and variance, uncorrelated with the rest): the mixing of unequal states of
+    Granström, Willett & Bar-Shalom (2015), which does not pull the rate towards 0 as a
+    straight model taken to turn at rate 0 would.
+    """
+    n = models[j].n_state
+    if n == means.shape[1] and not isinstance(models[j], UnknownRateTurn):
+        return mixture_moments(weights, means, covs)
+    if not isinstance(models[j], UnknownRateTurn):
+        return mixture_moments(weights, means[:, :n], covs[:, :n, :n])
+    filled_m, filled_p = means.copy(), covs.copy()
+    for i, model in enumerate(models):
+        if not isinstance(model, UnknownRateTurn):
+            filled_m[i, -1] = means[j, -1]
+            filled_p[i, -1, :] = filled_p[i, :, -1] = 0.0
+            filled_p[i, -1, -1] = covs[j, -1, -1]
+    return mixture_moments(weights, filled_m, filled_p)
+
+
+def update_models(unit: ExtendedKalmanFilter, group: MeasurementGroup,
+                  models: Sequence[NearlyConstantVelocity], means: Array, covs: Array,
+                  weights: Array) -> tuple[Array, float, int]:
+    """Update each model's Gaussian in place, as :func:`update_components` (the same returns).
+
+    The rows see position and velocity only, so the component filter updates those; the
+    turn rate of an estimated-rate turn follows by its regression on them, unchanged by the
+    rows given them (``r | x`` is Gaussian with mean ``r + G (x - m_x)``,
+    ``G = P_rx P_xx^-1``): ``r' = r + G (x' - x)``, ``P_rx' = G P_xx'``,
+    ``P_rr' = P_rr - G (P_xx - P_xx') G^T``, which is the augmented filter's update whenever
+    it linearises (or draws its points) as the component does.
+    """
+    n = means.shape[1] if not any(isinstance(m, UnknownRateTurn) for m in models) \
+        else means.shape[1] - 1
+    if n == means.shape[1]:
+        return update_components(unit, group, means, covs, weights)
+    kin_m, kin_p = means[:, :n].copy(), covs[:, :n, :n].copy()
+    log_l, nis, dof = update_components(unit, group, kin_m, kin_p, weights)
+    for j, model in enumerate(models):
+        if isinstance(model, UnknownRateTurn) and np.isfinite(log_l[j]):
+            gain = np.linalg.solve(covs[j, :n, :n], covs[j, :n, n])
+            cross = gain @ kin_p[j]
+            means[j, n] += gain @ (kin_m[j] - means[j, :n])
+            covs[j, n, n] -= gain @ (covs[j, :n, :n] - kin_p[j]) @ gain
+            covs[j, n, :n] = covs[j, :n, n] = cross
+    means[:, :n], covs[:, :n, :n] = kin_m, kin_p
+    return log_l, nis, dof
 
 
 def model_records(f: InteractingMultipleModel | MultipleModelParticleFilter, track: Track
@@ -427,7 +533,10 @@ def model_records(f: InteractingMultipleModel | MultipleModelParticleFilter, tra
     track.extra.model_probabilities = [list(p) for p in f.probability_history]
     track.extra.models = [{"q": [float(v) for v in m.axes()[0]],
                            "q_density": [float(v) for v in m.axes()[1]],
-                           "turn_rate": float(getattr(m, "turn_rate", 0.0)),
+                           "turn_rate": None if isinstance(m, UnknownRateTurn)
+                           else float(getattr(m, "turn_rate", 0.0)),
+                           **({"rate_noise": m.rate_noise} if isinstance(m, UnknownRateTurn)
+                              else {}),
                            "prior": float(p),
                            "sojourn": None if f.chain.fixed is not None
                            else f.chain.sojourn} for m, p in zip(f.models, f._mu0, strict=True)]
@@ -438,8 +547,10 @@ def model_records(f: InteractingMultipleModel | MultipleModelParticleFilter, tra
 def models_of(track: Track) -> list[NearlyConstantVelocity]:
     """Rebuild a multiple-model track's models from ``track.extra.models``."""
     dim = len(track.state_names) // 2
-    return [CoordinatedTurn(dim, tuple(m["q"]), tuple(m["q_density"]),
-                            turn_rate=float(m["turn_rate"])) if m["turn_rate"]
+    return [UnknownRateTurn(dim, tuple(m["q"]), tuple(m["q_density"]),
+                            rate_noise=float(m["rate_noise"])) if m.get("rate_noise") is not None
+            else CoordinatedTurn(dim, tuple(m["q"]), tuple(m["q_density"]),
+                                 turn_rate=float(m["turn_rate"])) if m["turn_rate"]
             else NearlyConstantVelocity(dim, tuple(m["q"]), tuple(m["q_density"]))
             for m in track.extra.models or ()]
 
@@ -493,53 +604,69 @@ def imm_smooth(track: Track) -> tuple[Array, Array, Array]:
     Control 14(4).
     """
     history: ModelHistory = track.extra.history
+    models, count = history.models, len(history.models)
+    rated = any(isinstance(m, UnknownRateTurn) for m in models)
+
+    def gaussians(k: int, inflate: float) -> tuple[Array, Array]:
+        means = np.repeat(track.states[k:k + 1], count, axis=0)
+        covs = np.repeat(track.covariances[k:k + 1] * inflate, count, axis=0)
+        return with_rate(means, covs, math.sqrt(inflate) * history.rate_std) if rated \
+            else (means, covs)
+
     steps = list(history.steps)
     if len(steps) == len(track) - 1:  # the start's row: fused, never updated
         steps.insert(0, ModelStep(float(track.times[0]), np.asarray(
-            (track.extra.model_probabilities or [[1.0]])[0]), track.states[:1],
-            track.covariances[:1], np.eye(len(history.models)), None))
+            (track.extra.model_probabilities or [[1.0]])[0]), *gaussians(0, 1.0),
+            np.eye(count), None))
     if len(steps) != len(track) or not np.allclose([s.time for s in steps], track.times):
         raise ValueError("the IMM filter's model states do not match the track's rows; it "
                          "cannot be smoothed")
-    models, count = history.models, len(history.models)
     out_mu = np.array([s.probabilities for s in steps])
     out_m, out_p = track.states.copy(), track.covariances.copy()
     mu = _stationary(steps[-1].transition)
-    means = np.repeat(track.states[-1:], count, axis=0)
-    covs = np.repeat(track.covariances[-1:] * BACKWARD_INFLATE, count, axis=0)
-    mu = _backward_update(history.unit, steps[-1].group, means, covs, mu)
+    means, covs = gaussians(len(track) - 1, BACKWARD_INFLATE)
+    mu = _backward_update(history, steps[-1].group, means, covs, mu)
     for k in range(len(steps) - 2, -1, -1):
         dt = float(steps[k + 1].time - steps[k].time)
         pij = steps[k + 1].transition
         pi = _stationary(pij)
-        back = np.array([m.transition(-dt) for m in models])
-        moved_m = np.einsum("jab,jb->ja", back, means)
-        moved_p = back @ (covs + np.array([m.noise(dt) for m in models])) @ np.swapaxes(
-            back, -1, -2)
+        moved_m, moved_p = means.copy(), covs.copy()
+        for j, model in enumerate(models):
+            w = model.n_state
+            moved, back = model.propagate(means[j, :w], -dt)
+            moved_m[j, :w] = moved
+            moved_p[j, :w, :w] = back @ (covs[j, :w, :w] + model.noise(dt)) @ back.T
         reverse = pij * pi[:, None] / np.maximum(pi @ pij, 1e-300)[None, :]  # (i, j)
         joint = reverse * mu[None, :]
         c = joint.sum(axis=1)
         weights = np.divide(joint, c[:, None], out=np.full_like(joint, 1.0 / count),
                             where=c[:, None] > 0)
         mu = c / c.sum()
-        for i in range(count):
-            means[i], covs[i] = mixture_moments(weights[i], moved_m, moved_p)
-        out_m[k], out_p[k], out_mu[k] = _fuse(steps[k], means, covs, mu, pi)
+        for i, model in enumerate(models):
+            w = model.n_state
+            means[i], covs[i] = moved_m[i], moved_p[i]  # (the place holder of the rate)
+            means[i, :w], covs[i, :w, :w] = mix_into(i, models, weights[i], moved_m, moved_p)
+        out_m[k], out_p[k], out_mu[k] = _fuse(steps[k], means, covs, mu, pi,
+                                              track.states.shape[1])
         if steps[k].group is not None:
-            mu = _backward_update(history.unit, steps[k].group, means, covs, mu)
+            mu = _backward_update(history, steps[k].group, means, covs, mu)
     return out_m, out_p, out_mu
 
 
-def _fuse(forward: ModelStep, means: Array, covs: Array, mu: Array, pi: Array
+def _fuse(forward: ModelStep, means: Array, covs: Array, mu: Array, pi: Array, n: int
           ) -> tuple[Array, Array, Array]:
-    """Fuse each model's forward and backward Gaussians; weigh them by both and their overlap."""
+    """Fuse each model's forward and backward Gaussians; weigh them by both and their overlap.
+
+    The overlap is that of the first ``n`` components (position and velocity), which every
+    model has; the mixture's moments are theirs.
+    """
     total = forward.covariances + covs
     gain = np.swapaxes(np.linalg.solve(total, forward.covariances), -1, -2)
     d = means - forward.means
     fused_m = forward.means + np.einsum("iab,ib->ia", gain, d)
     fused_p = forward.covariances - gain @ forward.covariances
-    chol = np.linalg.cholesky(symmetrise(total))
-    white = np.linalg.solve(chol, d[..., None])[..., 0]
+    chol = np.linalg.cholesky(symmetrise(total[:, :n, :n]))
+    white = np.linalg.solve(chol, d[:, :n, None])[..., 0]
     with np.errstate(divide="ignore"):
         log_w = (np.log(forward.probabilities) + np.log(mu) - np.log(pi)
                  - 0.5 * np.einsum("ia,ia->i", white, white)
@@ -547,16 +674,16 @@ def _fuse(forward: ModelStep, means: Array, covs: Array, mu: Array, pi: Array
     top = np.max(log_w)
     w = np.exp(log_w - top) if np.isfinite(top) else forward.probabilities.copy()
     w = w / w.sum()
-    mean, cov = mixture_moments(w, fused_m, fused_p)
+    mean, cov = mixture_moments(w, fused_m[:, :n], fused_p[:, :n, :n])
     return mean, cov, w
 
 
-def _backward_update(unit: ExtendedKalmanFilter, group: MeasurementGroup | None, means: Array,
+def _backward_update(history: ModelHistory, group: MeasurementGroup | None, means: Array,
                      covs: Array, mu: Array) -> Array:
     """Update the backward filter's models in place; give their probabilities."""
     if group is None:
         return mu
-    log_l, _, _ = update_components(unit, group, means, covs, mu)
+    log_l, _, _ = update_models(history.unit, group, history.models, means, covs, mu)
     ok = np.isfinite(log_l)
     if not ok.any():
         return mu

@@ -7,6 +7,7 @@ of density ``q_density`` (m^2/s^3, Bar-Shalom, Li & Kirubarajan (2001), eq. 6.2.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -185,6 +186,22 @@ class NearlyConstantVelocity:
         """
         return process_noise(dt, self.q, self.dim, self.q_density)
 
+    def propagate(self, mean: Array, dt: float) -> tuple[Array, Array]:
+        """Give the mean moved by ``dt`` (s) and the transition's Jacobian there.
+
+        Parameters
+        ----------
+        mean : ndarray, shape (n_state,)
+        dt : float
+
+        Returns
+        -------
+        mean, jacobian : ndarray
+            ``Phi(dt) mean`` and ``Phi(dt)``: the model is linear.
+        """
+        phi = self.transition(dt)
+        return phi @ mean, phi
+
 
 @dataclass(frozen=True)
 class CoordinatedTurn(NearlyConstantVelocity):
@@ -223,3 +240,116 @@ class CoordinatedTurn(NearlyConstantVelocity):
         phi[1, d:d + 2] = ((1.0 - c) / w, s / w)
         phi[d:d + 2, d:d + 2] = ((c, -s), (s, c))
         return phi
+
+
+def _turn_terms(w: float, dt: float) -> tuple[float, float, float, float]:
+    """Give ``sin(w dt)/w``, ``(1 - cos(w dt))/w`` and their derivatives in ``w``.
+
+    By their Taylor series where ``w dt`` is small (the closed forms lose every digit at 0).
+    """
+    a = w * dt
+    if abs(a) < 1e-3:
+        return (dt * (1.0 - a * a / 6.0), dt * a * (0.5 - a * a / 24.0),
+                -dt**2 * a * (1.0 / 3.0 - a * a / 30.0), dt**2 * (0.5 - a * a / 8.0))
+    s, c = math.sin(a), math.cos(a)
+    return s / w, (1.0 - c) / w, (dt * c - s / w) / w, (dt * s - (1.0 - c) / w) / w
+
+
+@dataclass(frozen=True)
+class UnknownRateTurn(NearlyConstantVelocity):
+    """Nearly-coordinated turn whose rate is part of the state, for the IMM filter's models.
+
+    State ``[x, y, (z), vx, vy, (vz), omega]``: the horizontal velocity turns at the rate
+    ``omega`` (rad/s, counter-clockwise positive in ENU), which walks at random; height moves
+    at constant velocity.  The motion is non-linear in ``omega``: :meth:`propagate` gives the
+    moved mean and the Jacobian that an extended Kalman filter's prediction uses.
+
+    Parameters
+    ----------
+    dim, q, q_density
+        As for :class:`NearlyConstantVelocity` (the position and velocity's noise).
+    rate_noise : float
+        Std of the turn rate's random walk over one second, rad/s per sqrt(s): the rate's
+        variance grows by ``rate_noise**2 * dt`` over a step of ``dt`` s.
+
+    Raises
+    ------
+    ValueError
+        A ``rate_noise`` that is negative or not finite, or what the parent refuses.
+
+    References
+    ----------
+    Li & Jilkov (2003), "Survey of maneuvering target tracking. Part I: Dynamic models",
+    IEEE Trans. AES 39(4), §V.B (the coordinated turn with unknown turn rate); Bar-Shalom, Li &
+    Kirubarajan (2001), §11.7.2.
+    """
+
+    rate_noise: float = 0.0
+
+    def __post_init__(self) -> None:
+        """Refuse a bad ``rate_noise``, and what the parent refuses."""
+        super().__post_init__()
+        if not (math.isfinite(self.rate_noise) and self.rate_noise >= 0):
+            raise ValueError(f"the turn rate's noise must be finite and >= 0 (rad/s per "
+                             f"sqrt(s)); got {self.rate_noise}")
+
+    @property
+    def n_state(self) -> int:
+        """State dimension ``2 dim + 1`` (the turn rate last)."""
+        return 2 * self.dim + 1
+
+    def transition(self, dt: float) -> Array:
+        """Refuse: the motion depends on the state's turn rate (use :meth:`propagate`).
+
+        Raises
+        ------
+        TypeError
+            Always.
+        """
+        raise TypeError("an unknown-rate turn has no transition matrix of its own; its "
+                        "motion depends on the turn rate in the state (use propagate)")
+
+    def noise(self, dt: float) -> Array:
+        """Give ``Q_k`` of a step ``dt`` (s): the parent's, then the rate's ``rate_noise**2 |dt|``.
+
+        Parameters
+        ----------
+        dt : float
+
+        Returns
+        -------
+        ndarray, shape (2 dim + 1, 2 dim + 1)
+        """
+        n = 2 * self.dim
+        out = np.zeros((n + 1, n + 1))
+        out[:n, :n] = process_noise(dt, self.q, self.dim, self.q_density)
+        out[n, n] = self.rate_noise**2 * abs(float(dt))
+        return out
+
+    def propagate(self, mean: Array, dt: float) -> tuple[Array, Array]:
+        """Give the mean moved by ``dt`` (s, any sign) at its own turn rate, and the Jacobian.
+
+        Parameters
+        ----------
+        mean : ndarray, shape (2 dim + 1,)
+        dt : float
+
+        Returns
+        -------
+        mean, jacobian : ndarray
+            ``(2 dim + 1,)`` and ``(2 dim + 1, 2 dim + 1)``: the turn's exact motion over
+            ``dt`` (Li & Jilkov 2003, §V.B) and its derivative in every component.
+        """
+        d, w = self.dim, float(mean[-1])
+        a, b, da, db = _turn_terms(w, dt)
+        s, c = math.sin(w * dt), math.cos(w * dt)
+        vx, vy = float(mean[d]), float(mean[d + 1])
+        jac = np.eye(2 * d + 1)
+        jac[:d, d:2 * d] = dt * np.eye(d)
+        jac[0, d:d + 2] = (a, -b)
+        jac[1, d:d + 2] = (b, a)
+        jac[d:d + 2, d:d + 2] = ((c, -s), (s, c))
+        jac[:2, -1] = (da * vx - db * vy, db * vx + da * vy)
+        jac[d:d + 2, -1] = (-dt * (s * vx + c * vy), dt * (c * vx - s * vy))
+        moved = jac[:-1, :-1] @ mean[:-1]
+        return np.append(moved, w), jac

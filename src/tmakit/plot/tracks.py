@@ -203,7 +203,8 @@ def _model_probabilities(ax: Any, tr: Track, meas: MeasurementSet, colours: list
     for j, model in enumerate(tr.extra.models or [{}] * mu.shape[1]):
         q = model.get("q", [float("nan")])
         turn = model.get("turn_rate", 0.0)
-        what = f", turn {np.degrees(turn):+.3g} deg/s" if turn else ""
+        what = (", turn at an estimated rate" if turn is None
+                else f", turn {np.degrees(turn):+.3g} deg/s" if turn else "")
         ax.plot(t, mu[:, j], "-", color=colours[j % len(colours)], lw=1.2,
                 label=f"model {j + 1} (q = {max(q):g} m/s^2{what})")
     smoothed = getattr(tr.extra.smoothed, "extra", None)

@@ -115,7 +115,7 @@ class Confirmation:
 
 @dataclass(frozen=True)
 class Rejection:
-    """A start that its innovation test rejected.
+    """A start that its innovation test rejected, or whose profile likelihood was too wide.
 
     Parameters
     ----------
@@ -123,13 +123,18 @@ class Rejection:
         Its initial window (distinct measurement times).
     time : float
         The window's last time (s).
-    confirmation : Confirmation
-        The failed test.
+    confirmation : Confirmation or None
+        The failed test; ``None`` for a start rejected by its widened covariance.
+    relative_position_std : float or None
+        The position's largest 1-sigma semi-axis over the range by the covariance widened to
+        the profile likelihood, when that rejected the start (it is above the start's
+        ``max_relative_std``, which the linearised covariance met).
     """
 
     window: int
     time: float
-    confirmation: Confirmation
+    confirmation: Confirmation | None
+    relative_position_std: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """Return the JSON form.
@@ -137,8 +142,11 @@ class Rejection:
         Returns
         -------
         dict
-            ``window``, ``time`` (s) and the test's keys.
+            ``window``, ``time`` (s) and the test's keys, or ``relative_position_std``.
         """
+        if self.confirmation is None:
+            return {"window": self.window, "time": self.time,
+                    "relative_position_std": self.relative_position_std}
         return {"window": self.window, "time": self.time, **self.confirmation.as_dict()}
 
     def describe(self) -> str:
@@ -150,6 +158,10 @@ class Rejection:
             The window and its test.
         """
         c = self.confirmation
+        if c is None:
+            return (f"window of {self.window} times (t <= {float(self.time):g} s): position "
+                    f"std {self.relative_position_std:.1%} of the range by its profile "
+                    f"likelihood")
         return (f"window of {self.window} times (t <= {float(self.time):g} s): NIS "
                 f"{float(c.nis):.4g} on {c.dof} degrees of freedom over the next "
                 f"{c.updates} updates (p = {float(c.p_value):.2g})")
@@ -1023,6 +1035,13 @@ class BatchInitiator(Initiator):
         The first window the search tries (distinct measurement times).
     confirm_p_value : float
         A start whose test has a smaller p-value is rejected.
+    likelihood_quality : bool
+        Judge ``max_relative_std`` by the covariance widened to the window's profile
+        likelihood (:func:`likelihood_covariance`), not only by the linearised one: a window
+        that meets it only by its linearised covariance is rejected and a window at least twice
+        as long tried (kept when no longer window meets the quality at all). The
+        multiple-model filters ask for it (their ``start_by_likelihood``): to their turn
+        models, a start's range error is a turn, not an error to correct.
 
     Raises
     ------
@@ -1032,8 +1051,8 @@ class BatchInitiator(Initiator):
 
     def __init__(self, init_window: int | None = None,
                  max_relative_std: float = DEFAULT_MAX_RELATIVE_STD, confirm: bool = True,
-                 min_window: int = MIN_WINDOW, confirm_p_value: float = CONFIRM_P_VALUE
-                 ) -> None:
+                 min_window: int = MIN_WINDOW, confirm_p_value: float = CONFIRM_P_VALUE,
+                 likelihood_quality: bool = False) -> None:
         if init_window is None and not max_relative_std > 0:
             raise TrackingError(f"max_relative_std must be > 0, got {max_relative_std}",
                                 "max_relative_std")
@@ -1045,6 +1064,7 @@ class BatchInitiator(Initiator):
         self.confirm = bool(confirm) and init_window is None
         self.min_window = int(min_window)
         self.confirm_p_value = float(confirm_p_value)
+        self.likelihood_quality = bool(likelihood_quality) and init_window is None
 
     def initiate(self, meas: MeasurementSet, setup: FilterSetup) -> Initiation:
         """Search the window, start, test, and run (see :meth:`Initiator.initiate`).
@@ -1056,6 +1076,7 @@ class BatchInitiator(Initiator):
         """
         rejected: list[Rejection] = []
         first = self.min_window
+        too_wide: tuple[WindowChoice, Array, tuple[Widening, ...]] | None = None
         while True:
             try:
                 found = search_window(meas, setup.dim, setup.options or None,
@@ -1063,16 +1084,34 @@ class BatchInitiator(Initiator):
                                       min_window=first, fit_p_value=self.confirm_p_value
                                       if self.confirm else 0.0)
             except StartError as e:
-                if not rejected:
+                if too_wide is not None:  # no longer window will do: the wide start it is
+                    found, wide, widened = too_wide
+                    rejected = [r for r in rejected if r.window != found.chosen.window]
+                    too_wide = None
+                elif not rejected:
                     raise
-                raise e.extended("; earlier starts were rejected by the innovations that "
-                                 "followed them: " + "; ".join(r.describe() for r in rejected)
-                                 ) from None
+                else:
+                    raise e.extended("; earlier starts were rejected by the innovations that "
+                                     "followed them" + ("" if all(r.confirmation for r in rejected)
+                                                        else " or by their profile likelihood")
+                                     + ": " + "; ".join(r.describe() for r in rejected)
+                                     ) from None
+            else:
+                w = found.chosen
+                assert w.estimate is not None
+                rows = meas.take(meas.time <= w.time + 1e-9)
+                wide, widened = likelihood_covariance(w.estimate, rows, w.time, setup.dim,
+                                                      setup.options or None)
+                honest = _relative_std(replace(w.estimate, covariance=wide), rows, w.time,
+                                       setup.dim) if widened and self.likelihood_quality else None
+                if honest is not None and honest > self.max_relative_std:
+                    # the window met the quality only by its overconfident linearised covariance
+                    rejected.append(Rejection(w.window, w.time, None, honest))
+                    too_wide, first = (found, wide, widened), 2 * w.window
+                    continue
             w = found.chosen
             assert w.estimate is not None
             rows = meas.take(meas.time <= w.time + 1e-9)
-            wide, widened = likelihood_covariance(w.estimate, rows, w.time, setup.dim,
-                                                  setup.options or None)
             filt = setup.from_estimate(replace(w.estimate, covariance=wide,
                                                std=np.sqrt(np.diag(wide))), w.time)
             mean, cov, nuisance = filt.state, filt.covariance, dict(filt.nuisance)

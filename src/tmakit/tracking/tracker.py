@@ -62,7 +62,8 @@ def _initiator(initiator: Initiator | None,
     if max_relative_std is None:  # a multiple-model filter asks for a better start
         max_relative_std = getattr(filter_class(tracker), "start_relative_std",
                                    DEFAULT_MAX_RELATIVE_STD)
-    return BatchInitiator(init_window, max_relative_std, confirm)
+    return BatchInitiator(init_window, max_relative_std, confirm, likelihood_quality=getattr(
+        filter_class(tracker), "start_by_likelihood", False))
 
 
 def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0,
@@ -96,7 +97,8 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     prior_time : float, optional
         The prior's time (s; default the first measurement time).
     init_window, max_relative_std, confirm
-        As ``BatchInitiator(init_window, max_relative_std, confirm)``; std 0.25 (imm, mmpf 0.1).
+        As ``BatchInitiator(init_window, max_relative_std, confirm)``; std 0.25 (imm, mmpf 0.1,
+        judged by the start's covariance widened to its profile likelihood).
     rng : numpy.random.Generator or int, optional
         Generator or seed, for the filters that draw random numbers.
     dim : int, optional
