@@ -457,16 +457,16 @@ def model_bank(dynamics: NearlyConstantVelocity, extra: Sequence[float],
         raise ValueError("the IMM filter's models are NearlyConstantVelocity dynamics")
     base_q, density = dynamics.axes()
     turn_axes = tuple(float(max(turn_q, b)) for b in base_q)
+    rated = [] if rate_noise is None else [
+        UnknownRateTurn(dynamics.dim, turn_axes, tuple(density), rate_noise=float(rate_noise))]
     return [dynamics] + [
         NearlyConstantVelocity(dynamics.dim, tuple(float(max(v, b)) for b in base_q),
-                               tuple(density)) for v in extra] + [
-        UnknownRateTurn(dynamics.dim, turn_axes, tuple(density), rate_noise=float(rate_noise))
-        for _ in range(rate_noise is not None)] + [
+                               tuple(density)) for v in extra] + rated + [
         CoordinatedTurn(dynamics.dim, tuple(float(max(turn_q, b)) for b in base_q),
                         tuple(density), turn_rate=w) for w in rates]
 
 
-def with_rate(means: Array, covs: Array, rate_std: float) -> Array:
+def with_rate(means: Array, covs: Array, rate_std: float) -> tuple[Array, Array]:
     """Give the models' Gaussians ``(M, n)``, ``(M, n, n)`` with a turn rate ``0 +- rate_std``."""
     count = means.shape[0]
     out_p = np.pad(covs, ((0, 0), (0, 1), (0, 1)))
@@ -605,18 +605,10 @@ def imm_smooth(track: Track) -> tuple[Array, Array, Array]:
     """
     history: ModelHistory = track.extra.history
     models, count = history.models, len(history.models)
-    rated = any(isinstance(m, UnknownRateTurn) for m in models)
-
-    def gaussians(k: int, inflate: float) -> tuple[Array, Array]:
-        means = np.repeat(track.states[k:k + 1], count, axis=0)
-        covs = np.repeat(track.covariances[k:k + 1] * inflate, count, axis=0)
-        return with_rate(means, covs, math.sqrt(inflate) * history.rate_std) if rated \
-            else (means, covs)
-
     steps = list(history.steps)
     if len(steps) == len(track) - 1:  # the start's row: fused, never updated
         steps.insert(0, ModelStep(float(track.times[0]), np.asarray(
-            (track.extra.model_probabilities or [[1.0]])[0]), *gaussians(0, 1.0),
+            (track.extra.model_probabilities or [[1.0]])[0]), *_row_models(track, 0, 1.0),
             np.eye(count), None))
     if len(steps) != len(track) or not np.allclose([s.time for s in steps], track.times):
         raise ValueError("the IMM filter's model states do not match the track's rows; it "
@@ -624,7 +616,7 @@ def imm_smooth(track: Track) -> tuple[Array, Array, Array]:
     out_mu = np.array([s.probabilities for s in steps])
     out_m, out_p = track.states.copy(), track.covariances.copy()
     mu = _stationary(steps[-1].transition)
-    means, covs = gaussians(len(track) - 1, BACKWARD_INFLATE)
+    means, covs = _row_models(track, len(track) - 1, BACKWARD_INFLATE)
     mu = _backward_update(history, steps[-1].group, means, covs, mu)
     for k in range(len(steps) - 2, -1, -1):
         dt = float(steps[k + 1].time - steps[k].time)
@@ -651,6 +643,17 @@ def imm_smooth(track: Track) -> tuple[Array, Array, Array]:
         if steps[k].group is not None:
             mu = _backward_update(history, steps[k].group, means, covs, mu)
     return out_m, out_p, out_mu
+
+
+def _row_models(track: Track, k: int, inflate: float) -> tuple[Array, Array]:
+    """Give every model the track's row ``k``, its covariance times ``inflate`` (and a rate)."""
+    history: ModelHistory = track.extra.history
+    count = len(history.models)
+    means = np.repeat(track.states[k:k + 1], count, axis=0)
+    covs = np.repeat(track.covariances[k:k + 1] * inflate, count, axis=0)
+    if any(isinstance(m, UnknownRateTurn) for m in history.models):
+        return with_rate(means, covs, math.sqrt(inflate) * history.rate_std)
+    return means, covs
 
 
 def _fuse(forward: ModelStep, means: Array, covs: Array, mu: Array, pi: Array, n: int

@@ -97,8 +97,7 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
     prior_time : float, optional
         The prior's time (s; default the first measurement time).
     init_window, max_relative_std, confirm
-        As ``BatchInitiator(init_window, max_relative_std, confirm)``; std 0.25 (imm, mmpf 0.1,
-        judged by the start's covariance widened to its profile likelihood).
+        As ``BatchInitiator``'s; std 0.25 (imm, mmpf: 0.1, judged by the profile likelihood).
     rng : numpy.random.Generator or int, optional
         Generator or seed, for the filters that draw random numbers.
     dim : int, optional
