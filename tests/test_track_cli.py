@@ -80,9 +80,11 @@ def test_track_json_ends_within_its_own_uncertainty_of_the_truth(obs, name):
     assert data["nis"][0] is None and missed <= (0.01 * len(t) if name == "mpekf" else 0)
     truth = tk.load_scenario("bearings-only-2d").target_states([600.0])[0][[0, 1, 3, 4]]
     assert final_sigmas(data["estimate"][-1], data["covariance"][-1], truth) < SIGMAS
-    # The filter learnt something: the final position std is far below the start's.
+    # The filter learnt something: the final position std is far below the start's (imm and
+    # mmpf start later, at 0.1 of the range by the start's profile likelihood: less to learn).
     std = np.array(data["std"])
-    assert np.hypot(*std[-1, :2]) < 0.2 * np.hypot(*std[0, :2])
+    learnt = 0.5 if name in ("imm", "mmpf") else 0.2
+    assert np.hypot(*std[-1, :2]) < learnt * np.hypot(*std[0, :2])
 
 
 def test_library_and_command_give_the_same_track(obs):
