@@ -245,12 +245,18 @@ class InteractingMultipleModel(TrackingFilter):
         pij = self._switch = self.chain.matrix(dt)
         c = self._mu @ pij  # c_j
         mixed_m, mixed_p = np.empty_like(self._m), np.empty_like(self._p)
+        rated = self.rate_noise is not None
         for j, model in enumerate(self.models):
             w = pij[:, j] * self._mu
             total = float(w.sum())
             w = w / total if total > 0 else np.full_like(w, 1.0 / w.shape[0])
-            mean, cov = mix_into(j, self.models, w, self._m, self._p)
-            moved, jac = model.propagate(mean, dt)
+            if rated:
+                mean, cov = mix_into(j, self.models, w, self._m, self._p)
+                moved, jac = model.propagate(mean, dt)
+            else:  # (every model linear, one state: the filter's step kept lean)
+                mean, cov = mixture_moments(w, self._m, self._p)
+                jac = model.transition(dt)
+                moved = jac @ mean
             k = moved.shape[0]
             if k < mixed_m.shape[1]:  # a model without the rate keeps its place holder
                 mixed_m[j], mixed_p[j] = self._m[j], self._p[j]
