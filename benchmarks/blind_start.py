@@ -44,8 +44,8 @@ except ImportError:  # run from a checkout without installing
 
 from geometries import observable_geometry, position_std
 
-from tmakit.batch import GridSettings, estimate
-from tmakit.batch.init import best_starts
+from tmakit.batch import estimate
+from tmakit.batch.init import GridSettings, best_starts
 from tmakit.batch.solver import VarProProblem
 from tmakit.data import MeasurementSet
 from tmakit.observation import ObservationModel

@@ -10,18 +10,11 @@ import numpy as np
 import pytest
 
 import tmakit as tk
-from tmakit.batch import (
-    METHODS,
-    BatchEstimator,
-    GuDirect,
-    LectureGaussNewton,
-    ManoeuvreEstimator,
-    MaximumLikelihood,
-    MLByMotion,
-    RatioMethod,
-    estimate_with,
-    estimator,
-)
+from tmakit.batch import GuDirect, LectureGaussNewton, RatioMethod
+from tmakit.batch.estimator import BatchEstimator
+from tmakit.batch.manoeuvre import ManoeuvreEstimator
+from tmakit.batch.methods import METHODS, MLByMotion, estimate_with, estimator
+from tmakit.batch.ml import MaximumLikelihood
 from tmakit.batch.ml import estimate as estimate_ml
 from tmakit.bounds import crlb
 from tmakit.reproduce.doppler_lecture import with_receivers

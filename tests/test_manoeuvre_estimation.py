@@ -24,9 +24,9 @@ from tmakit.cli import app
 from tmakit.motion import (
     FixedParameters,
     PiecewiseCurvilinear,
-    numerical_jacobian,
     propagate_curvilinear,
 )
+from tmakit.motion.base import numerical_jacobian
 from tmakit.motion.curvilinear import ForwardPiecewise
 from tmakit.motion.curvilinear_compiled import propagate_with_partials
 

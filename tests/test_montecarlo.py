@@ -12,7 +12,8 @@ from scipy.stats import chi2
 
 import tmakit as tk
 from tmakit import montecarlo as mc
-from tmakit.batch import METHODS, BatchEstimator, Method
+from tmakit.batch.estimator import BatchEstimator
+from tmakit.batch.methods import METHODS, Method
 from tmakit.batch.ml import estimate
 from tmakit.montecarlo import MonteCarloResult, monte_carlo, ratio_interval
 

@@ -11,14 +11,14 @@ from scipy.integrate import solve_ivp
 
 from tmakit.core.frames import wrap_angle
 from tmakit.motion import (
-    DEFAULT_MANOEUVRES,
     ConstantVelocity,
     PiecewiseCurvilinear,
     Stationary,
     motion_from_name,
-    numerical_jacobian,
     propagate_curvilinear,
 )
+from tmakit.motion.base import numerical_jacobian
+from tmakit.motion.names import DEFAULT_MANOEUVRES
 
 HYPOTHESIS = settings(max_examples=60, deadline=None)
 

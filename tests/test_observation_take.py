@@ -8,9 +8,10 @@ import pytest
 
 import tmakit as tk
 from tmakit.batch.solver import VarProProblem
-from tmakit.observation import ObservationModel, RowLayout, RowModel
+from tmakit.observation import ObservationModel, RowLayout
 from tmakit.observation.affine_rows import AffineRows
 from tmakit.observation.noise import NoiseModel
+from tmakit.observation.rows import RowModel
 
 
 def _same(a: object, b: object) -> bool:

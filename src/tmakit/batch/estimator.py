@@ -25,7 +25,7 @@ class BatchEstimator(ABC):
     Attributes
     ----------
     name : str
-        Its key in :data:`tmakit.batch.METHODS` and ``result.method``.
+        Its key in :data:`tmakit.batch.methods.METHODS` and ``result.method``.
     takes_known_nuisance : bool
         Whether it takes a ``known_nuisance`` setting.
     """

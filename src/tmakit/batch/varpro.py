@@ -18,8 +18,9 @@ from ..core import blas
 from ..core.arrays import Array
 from ..core.frames import wrap_angle
 from ..core.frames import wrap_angle_own as _wrap_own
-from ..observation import Linearisation, ObservationModel
+from ..observation import ObservationModel
 from ..observation.noise import NoiseModel
+from ..observation.planar import Linearisation
 from ..observation.rows import angle_runs
 
 

@@ -19,8 +19,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
 from ..motion import MotionModel
-from ..observation import Linearisation, ObservationModel
+from ..observation import ObservationModel
 from ..observation.noise import NoiseModel, effective_noise
+from ..observation.planar import Linearisation
 from ..results.bound import Bound, bound_from_information
 from ..results.nuisance import KnownNuisanceLike, as_known_nuisance
 

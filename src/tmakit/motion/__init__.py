@@ -4,21 +4,10 @@ Models by name (``cv2d``, ``curvilinear:M``, ...) come from :func:`motion_from_n
 (:mod:`tmakit.motion.names`, the one parser of motion names).
 """
 
-from .base import FixedParameters, MotionModel, numerical_jacobian
+from .base import FixedParameters, MotionModel
 from .constant_velocity import ConstantVelocity, Stationary
 from .curvilinear import PiecewiseCurvilinear, propagate_curvilinear
-from .names import DEFAULT_MANOEUVRES, MOTION_NAMES, default_ref_time, motion_from_name
+from .names import default_ref_time, motion_from_name
 
-__all__ = [
-    "DEFAULT_MANOEUVRES",
-    "MOTION_NAMES",
-    "ConstantVelocity",
-    "FixedParameters",
-    "MotionModel",
-    "PiecewiseCurvilinear",
-    "Stationary",
-    "default_ref_time",
-    "motion_from_name",
-    "numerical_jacobian",
-    "propagate_curvilinear",
-]
+__all__ = ["ConstantVelocity", "FixedParameters", "MotionModel", "PiecewiseCurvilinear",
+           "Stationary", "default_ref_time", "motion_from_name", "propagate_curvilinear"]

@@ -1,8 +1,8 @@
 """The observation layer: measurement rows to predictions, Jacobians, noise and nuisance.
 
-:class:`RowModel` (the core), :class:`MeasurementGroup` (from a filter state),
-:class:`ObservationModel` (from motion parameters), :class:`NoiseModel` (whitening) and
-:func:`radar_group`.
+:class:`ObservationModel` (from motion parameters), :class:`MeasurementGroup` (from a filter
+state), :class:`NoiseModel` (whitening) and the radar's :func:`radar_group`; the row core is
+:mod:`tmakit.observation.rows`.
 """
 
 from .groups import (
@@ -15,9 +15,7 @@ from .groups import (
 )
 from .model import ObservationModel
 from .noise import NoiseModel
-from .planar import Linearisation
-from .rows import RowLayout, RowModel, nuisance_layout, resolve_models
+from .rows import RowLayout, resolve_models
 
-__all__ = ["Linearisation", "MeasurementGroup", "NoiseModel", "ObservationModel", "RowLayout",
-           "RowModel", "group_times", "nuisance_layout", "radar_group", "radar_rows",
-           "resolve_models", "time_blocks", "tonals_scaled"]
+__all__ = ["MeasurementGroup", "NoiseModel", "ObservationModel", "RowLayout", "group_times",
+           "radar_group", "radar_rows", "resolve_models", "time_blocks", "tonals_scaled"]
