@@ -20,15 +20,7 @@ Options = Mapping[str, Mapping[str, object]] | None
 
 
 class BatchEstimator(ABC):
-    """A batch estimator: settings in the constructor, :meth:`fit` on the data.
-
-    Attributes
-    ----------
-    name : str
-        Its key in :data:`tmakit.batch.methods.METHODS` and ``result.method``.
-    takes_known_nuisance : bool
-        Whether it takes a ``known_nuisance`` setting.
-    """
+    """A batch estimator: settings in the constructor, :meth:`fit` on the data."""
 
     name: ClassVar[str] = ""
     takes_known_nuisance: ClassVar[bool] = False

@@ -43,10 +43,7 @@ def _inverse(a: Array) -> Array:
 
 
 def _solve_weighted(g: Array, h: Array, cov: Array) -> tuple[Array, Array]:
-    """Give ``(G' W G)^-1 G' W h`` and ``(G' W G)^-1`` with ``W = cov^-1``.
-
-    Each of ``g (..., M, K)``, ``h (..., M)``, ``cov (..., M, M)`` may carry leading batch axes.
-    """
+    """Give ``(G' W G)^-1 G' W h`` and ``(G' W G)^-1`` with ``W = cov^-1``."""
     gtw = _t(g) @ _inverse(cov)
     inv = _inverse(gtw @ g)
     solution: Array = (inv @ (gtw @ h[..., None]))[..., 0]
@@ -57,10 +54,7 @@ def two_stage_wls(sensors: Array, ref: Array, rd: Array, cov: Array,
                   sensor_vel: Array | None = None, ref_vel: Array | None = None,
                   rrd: Array | None = None, height: float | None = None
                   ) -> tuple[Array, Array | None]:
-    """Locate a source from range (and range-rate) differences against one reference.
-
-    ``rd`` (and ``rrd``) may carry leading batch axes ``(..., m)``: one solve per data set.
-    """
+    """Locate a source from range (and range-rate) differences against one reference."""
     rd = np.asarray(rd, dtype=float)
     moving = rrd is not None
     free = [0, 1] if height is not None else [0, 1, 2]
@@ -217,10 +211,7 @@ def _covariance(meas: MeasurementSet, rows: NDArray[np.intp], kind: str) -> Arra
 def closed_form_state(meas: MeasurementSet, values: Array, snap: Snapshot,
                       carrier: float | None, height: float | None
                       ) -> tuple[Array, Array | None]:
-    """Solve one snapshot: the source position (and velocity, with FDOAs) at its time.
-
-    ``values`` are the set's, ``(n,)`` or ``(..., n)`` (one solve per data set).
-    """
+    """Solve one snapshot: the source position (and velocity, with FDOAs) at its time."""
     t = snap.tdoa
     rd = SPEED_OF_LIGHT * values[..., t]
     cov = SPEED_OF_LIGHT**2 * _covariance(meas, t, "tdoa")
@@ -246,10 +237,7 @@ def _known_carrier(meas: MeasurementSet, options: Options) -> float | None:
 
 def solve_snapshot(meas: MeasurementSet, values: Array, snap: Snapshot, carrier: float | None,
                    motion: MotionModel) -> Array:
-    """Solve a snapshot for the motion parameters, at the height known (plane or ellipsoid).
-
-    ``values`` may be ``(B, n)``: ``(B, p)`` solutions.
-    """
+    """Solve a snapshot for the motion parameters, at the height known (plane or ellipsoid)."""
     flat = motion.dim == 2
     rows = np.flatnonzero(meas.kind_mask("altitude"))
     stated = None if flat else Altitude.options_from_metadata(meas.metadata).get("origin")
@@ -271,24 +259,7 @@ def solve_snapshot(meas: MeasurementSet, values: Array, snap: Snapshot, carrier:
 
 def closed_form_many(meas: MeasurementSet, ys: Array, motion: MotionModel,
                      options: Options = None) -> Array | None:
-    """Solve the set's best closed form for each of several data sets of the same rows.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The rows (their values unused).
-    ys : ndarray
-        ``(B, n)`` values, SI, in the set's row order.
-    motion : MotionModel
-    options : mapping, optional
-        Per-kind model options (the FDOA carrier).
-
-    Returns
-    -------
-    ndarray or None
-        ``(B, p)`` motion parameters, a row of NaN where a solve failed; None when the set has
-        no TDOA snapshot.
-    """
+    """Solve the set's best closed form for each of several data sets of the same rows."""
     moving = not isinstance(motion, Stationary)
     carrier = _known_carrier(meas, options)
     snap = None

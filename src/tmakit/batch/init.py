@@ -29,23 +29,7 @@ __all__ = ["SHORTLIST", "ChordScorer", "GridScorer", "GridSettings", "Starts", "
 
 @dataclass(frozen=True)
 class GridSettings:
-    """Extent and density of the initial search (SI units).
-
-    Parameters
-    ----------
-    min_range, max_range : float
-        Extent of the geometrically spaced ranges, m.
-    n_ranges, n_bearings, n_courses : int
-        Ranges per ray; bearings of the fan when none is measured; courses per positive speed.
-    speeds : tuple of float
-        m/s; 0 is the target at rest.
-    elevations_deg : tuple of float
-        Above the sensors' plane, for 3-D models, deg.
-    max_rows, coarse_rows : int
-        Rows the ``refine`` best points and every point are scored on.
-    starts, refine : int
-        Distinct points that start the solve; points of the coarse stage scored again.
-    """
+    """Extent and density of the initial search (SI units)."""
 
     min_range: float = 100.0
     max_range: float = 50_000.0
@@ -158,17 +142,7 @@ def _velocities(speeds: tuple[float, ...], n_courses: int) -> NDArray[np.float64
 
 def grid_candidates(problem: VarProProblem, settings: GridSettings | None = None
                     ) -> NDArray[np.float64]:
-    """Return the candidate parameter vectors ``(m, p)``, SI, at the median measurement time.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-    settings : GridSettings, optional
-
-    Returns
-    -------
-    ndarray
-    """
+    """Return the candidate parameter vectors ``(m, p)``, SI, at the median measurement time."""
     return grid_candidates_for(problem.obs.meas, problem.obs.motion, settings)
 
 
@@ -375,20 +349,7 @@ def orthonormal_columns(a: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def best_starts(problem: VarProProblem, y: NDArray[np.float64],
                 settings: GridSettings | None = None) -> NDArray[np.float64]:
-    """Return the best few distinct grid candidates for one data set, best first.
-
-    Parameters
-    ----------
-    problem : VarProProblem
-    y : ndarray, shape (n,)
-        The data in grouped row order, SI.
-    settings : GridSettings, optional
-
-    Returns
-    -------
-    ndarray, shape (s, p)
-        Up to ``settings.starts`` motion parameter vectors, SI.
-    """
+    """Return the best few distinct grid candidates for one data set, best first."""
     g = settings or GridSettings()
     return best_starts_many(problem, np.asarray(y, dtype=float)[None, :], g)[0].first(g.starts)
 
@@ -512,24 +473,7 @@ def _scores(coarse: _Stage, small: _Stage, cand: NDArray[np.float64], refine: in
 def grid_start(meas: MeasurementSet, motion: MotionModel,
                options: Mapping[str, Mapping[str, object]] | None = None
                ) -> NDArray[np.float64]:
-    """Return tmakit's no-guess starting point: the best point of the likelihood grid.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-    motion : MotionModel
-    options : Mapping, optional
-        The nuisance model per kind.
-
-    Returns
-    -------
-    ndarray, shape (p,)
-
-    Raises
-    ------
-    ValueError
-        When no grid point gives finite predictions.
-    """
+    """Return tmakit's no-guess starting point: the best point of the likelihood grid."""
     obs = ObservationModel(meas, motion, options)
     problem = VarProProblem(obs, NoiseModel(obs.grouped, obs.models))
     starts = best_starts(problem, obs.values)

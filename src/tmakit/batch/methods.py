@@ -44,15 +44,7 @@ def model_of(motion: MotionModel | str, meas: MeasurementSet,
 
 
 class MLByMotion(BatchEstimator):
-    """Maximum likelihood of tmakit, the estimator chosen by the motion (``"ml"`` of METHODS).
-
-    Parameters
-    ----------
-    init, options, known_nuisance, grid, max_iter : optional
-        As for :func:`estimate`.
-    exact, criterion, alpha, accelerations, ref_time, settings : optional
-        As for :func:`estimate`.
-    """
+    """Maximum likelihood of tmakit, the estimator chosen by the motion (``"ml"`` of METHODS)."""
 
     name: ClassVar[str] = "ml"
     takes_known_nuisance: ClassVar[bool] = True
@@ -161,16 +153,7 @@ def estimate(meas: MeasurementSet, motion: MotionModel | str, init: Init = None,
 
 @dataclass(frozen=True)
 class Method:
-    """A batch estimator by name: its class and the settings the name fixes.
-
-    Parameters
-    ----------
-    cls : type
-        A :class:`~tmakit.batch.estimator.BatchEstimator` subclass.
-    fixed : Mapping[str, object], optional
-        Settings the name fixes (``ratio-power``: ``kinds=("power",)``).
-    summary : str, optional
-    """
+    """A batch estimator by name: its class and the settings the name fixes."""
 
     cls: type[BatchEstimator]
     fixed: Mapping[str, object] = field(default_factory=dict, hash=False)
@@ -210,23 +193,6 @@ METHODS: dict[str, Method] = {
 def estimator(method: str, **settings: object) -> BatchEstimator:
     """Build the batch estimator ``method`` (a key of :data:`METHODS`) with ``settings``.
 
-    Parameters
-    ----------
-    method : str
-    **settings
-        Its class's constructor parameters.
-
-    Returns
-    -------
-    BatchEstimator
-
-    Raises
-    ------
-    ValueError
-        For an unknown method, or settings it refuses.
-    TypeError
-        For a setting it does not take.
-
     References
     ----------
     Gu et al. (2007), §3 (``gu-direct``), eqs. 19-25 (``ratio-power``), 26-32
@@ -242,27 +208,5 @@ def estimator(method: str, **settings: object) -> BatchEstimator:
 def estimate_with(method: str, meas: MeasurementSet, motion: MotionModel,
                   init: Init = None, options: Options = None,
                   **settings: object) -> EstimateResult:
-    """Run the batch estimator ``method`` on the data.
-
-    Parameters
-    ----------
-    method : str
-        A key of :data:`METHODS`.
-    meas : MeasurementSet
-    motion : MotionModel
-        For ``ml`` also a motion name.
-    init, options, **settings : optional
-        As for :func:`tmakit.batch.estimate` and the method's class.
-
-    Returns
-    -------
-    EstimateResult
-
-    Raises
-    ------
-    ValueError
-        For an unknown method, refused settings, or data the method cannot use.
-    TypeError
-        For a setting the method does not take.
-    """
+    """Run the batch estimator ``method`` on the data."""
     return estimator(method, init=init, options=options, **settings).fit(meas, motion)

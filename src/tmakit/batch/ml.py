@@ -36,20 +36,7 @@ from .solver import Fallback, SolveResult, VarProProblem, information_of, levenb
 
 @dataclass(frozen=True, eq=False)
 class MaximumLikelihood(BatchEstimator):
-    """Maximum likelihood of tmakit for one motion model without manoeuvres, no guess needed.
-
-    Parameters
-    ----------
-    init : Mapping[str, float] or array_like, optional
-        A start, SI; default the likelihood grid's.
-    options : Mapping, optional
-        The nuisance model per kind, e.g. ``{"frequency": {"drift": True}}``.
-    known_nuisance : KnownNuisance, Mapping[str, float], bool or None, optional
-        Hold the nuisance at known values (default estimated).
-    grid : GridSettings, optional
-    max_iter : int, optional
-        Iterations per start (default 100).
-    """
+    """Maximum likelihood of tmakit for one motion model without manoeuvres, no guess needed."""
 
     init: Init = None
     options: Options = None
@@ -73,26 +60,7 @@ class MaximumLikelihood(BatchEstimator):
 
     def fit_many(self, sets: Sequence[MeasurementSet], motion: MotionModel
                  ) -> list[EstimateResult | Exception]:
-        """Fit many data sets, batched where they share their rows: :meth:`fit` of each.
-
-        Parameters
-        ----------
-        sets : Sequence[MeasurementSet]
-        motion : MotionModel
-            Without manoeuvres.
-
-        Returns
-        -------
-        list of EstimateResult or Exception
-            Per set: its result, or the error :meth:`fit` raises for it.
-
-        Raises
-        ------
-        TypeError
-            For a manoeuvring motion model or a motion name.
-        ValueError
-            When ``init`` has the wrong length.
-        """
+        """Fit many data sets, batched where they share their rows: :meth:`fit` of each."""
         if isinstance(motion, str) or getattr(motion, "manoeuvres", None) is not None:
             raise TypeError(f"MaximumLikelihood fits one motion model; the motion {motion!r} "
                             "is a manoeuvring target's: use ManoeuvreEstimator "

@@ -70,20 +70,7 @@ def kinds_tuple(kinds: str | Sequence[str] | None) -> tuple[str, ...] | None:
 
 @dataclass(frozen=True, eq=False)
 class PaperMethod(BatchEstimator):
-    """A local method of the papers, started from ``init`` or from tmakit's grid point.
-
-    Parameters
-    ----------
-    init : Mapping[str, float] or array_like, optional
-        The start, SI; default :func:`tmakit.batch.init.grid_start` on the method's kinds.
-    options : Mapping, optional
-        Only the papers' own model (no drift, exponent 2).
-
-    Raises
-    ------
-    ValueError
-        When ``options`` asks for another nuisance model.
-    """
+    """A local method of the papers, started from ``init`` or from tmakit's grid point."""
 
     init: Init = None
     options: Options = None
@@ -115,16 +102,7 @@ class PaperMethod(BatchEstimator):
         """
 
     def start_rows(self, meas: MeasurementSet) -> MeasurementSet:
-        """Return the rows of the kinds the method uses (all when none), to score the start on.
-
-        Parameters
-        ----------
-        meas : MeasurementSet
-
-        Returns
-        -------
-        MeasurementSet
-        """
+        """Return the rows of the kinds the method uses (all when none), to score the start on."""
         kinds = [k for k in self.start_kinds if k in meas.kinds]
         wanted = self.kinds_wanted
         if wanted is not None:
@@ -244,10 +222,7 @@ def power_watts(meas: MeasurementSet) -> Array:
 
 @dataclass(frozen=True)
 class PlanarGeometry:
-    """The sensor side of Gu et al. (2007), eqs. 7, 8, 12 and 16 for a set of samples.
-
-    A sensor off the plane z = 0 adds ``U_z^2`` to ``rho_k^2`` and ``U_z dU_z/dt`` to eq. 12.
-    """
+    """The sensor side of Gu et al. (2007), eqs. 7, 8, 12 and 16 for a set of samples."""
 
     t: Array      # (n,) s from the motion's reference time
     u: Array      # (n, 2) horizontal position, m

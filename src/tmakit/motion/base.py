@@ -290,22 +290,7 @@ class MotionModel(ABC):
 
 def numerical_jacobian(model: MotionModel, theta: ArrayLike, t: ArrayLike,
                        rel_step: float = 1e-6) -> NDArray[np.float64]:
-    """Compute ``d state / d theta`` ``(..., n, 6, p)`` by central differences.
-
-    Parameters
-    ----------
-    model : MotionModel
-    theta : array_like
-        ``(..., p)``, SI.
-    t : array_like
-        ``(n,)``, s.
-    rel_step : float
-        Step ``rel_step * max(1, |theta_j|)``.
-
-    Returns
-    -------
-    ndarray
-    """
+    """Compute ``d state / d theta`` ``(..., n, 6, p)`` by central differences."""
     theta = model.check_theta(theta)
     t = np.asarray(t, dtype=float)
     p = model.n_params

@@ -210,11 +210,7 @@ def _link(theta: Array, frm: int, to: int, seg_acc: int, t_to: int, t_from: int,
 def _anchors(theta: Array, M: int, ref_time: float, end_time: float, anywhere: bool,
              partials: bool, anchors: Array, v_start: NDArray[np.complex128], starts: Array,
              d_anchor: Array) -> None:  # pragma: no cover - compiled
-    """Chain one parameter vector's anchors (NaN outside the domain).
-
-    The state at ``ref_time`` in its segment, forwards to later segments' starts and
-    (``anywhere``) backwards to earlier segments' ends.
-    """
+    """Chain one parameter vector's anchors (NaN outside the domain)."""
     k0 = 6 + 2 * M
     v6 = np.empty((1, 1, 6))
     p47 = np.empty((1, 1, 4, 7))
@@ -533,13 +529,6 @@ def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course
                             partials: bool = True) -> tuple[Array, Array | None]:
     """Propagate one curvilinear segment by ``dt`` seconds (any sign); inputs broadcast.
 
-    Returns
-    -------
-    values : numpy.ndarray
-        ``(..., 6)``: ``x, y, speed, course, vx, vy`` (NaN where the speed would reach zero).
-    partials : numpy.ndarray or None
-        ``(..., 6, 7)``: their derivatives by ``x, y, speed, course, a_t, a_n, dt``.
-
     References
     ----------
     Hörst & Oispuu (2010), eq. 1 (the closed form: see :mod:`tmakit.motion.curvilinear`).
@@ -557,13 +546,7 @@ def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course
 def piecewise(theta: Array, t: Array, manoeuvres: int, ref_time: float, end_time: float,
               partials: bool, anywhere: bool = False
               ) -> tuple[IntArray, Array, Array | None, Array | None]:
-    """Propagate a batch of piecewise curvilinear trajectories to the times ``t``.
-
-    ``anywhere``: ``ref_time`` may lie in any segment (else before ``t_1``, and ``t_M`` before
-    ``end_time``).  Gives each sample's segment, its ``(x, y, speed, course, vx, vy)``, its
-    partials ``(4, 7)`` (x, y, vx, vy by its anchor's state, ``a_t``, ``a_n``, ``dt``) and the
-    anchors' derivatives ``(M + 1, 4, p)``.
-    """
+    """Propagate a batch of piecewise curvilinear trajectories to the times ``t``."""
     theta = np.ascontiguousarray(theta, dtype=float)
     t = np.ascontiguousarray(t, dtype=float)
     b, p = theta.shape

@@ -207,15 +207,8 @@ class NearlyConstantVelocity:
 class CoordinatedTurn(NearlyConstantVelocity):
     """Nearly-coordinated-turn dynamics at a known turn rate, for the IMM filter's models.
 
-    The horizontal velocity turns counter-clockwise positive in ENU (a right turn is negative);
-    height moves at constant velocity.
-
-    Parameters
-    ----------
-    dim, q, q_density
-        As for :class:`NearlyConstantVelocity`.
-    turn_rate : float
-        rad/s, not 0.
+    The turn rate (rad/s, not 0) is counter-clockwise positive in ENU; height moves at
+    constant velocity.
 
     References
     ----------

@@ -20,19 +20,7 @@ Term = tuple[int, int, Array | None]
 
 
 class AffineRows:
-    """``theta -> `` relative states ``(..., m, 6)`` at ``m`` rows (m, m/s).
-
-    Parameters
-    ----------
-    terms : sequence of Term
-        The non-zero terms.
-    offset : numpy.ndarray
-        ``(6, m)`` relative states at ``theta = 0`` (with ``sensor``: the target's offset alone).
-    p : int
-        Number of parameters.
-    sensor : numpy.ndarray, optional
-        ``(m, 6)`` sensor states subtracted from ``offset`` on first use.
-    """
+    """``theta -> `` relative states ``(..., m, 6)`` at ``m`` rows (m, m/s)."""
 
     def __init__(self, terms: Sequence[Term], offset: Array, p: int,
                  sensor: Array | None = None) -> None:

@@ -71,10 +71,7 @@ class ObservationModel:
 
     @property
     def order(self) -> NDArray[np.intp]:
-        """The set's rows in grouped order: grouped row ``j`` is the set's row ``order[j]``.
-
-        Made on first use when the set's rows are grouped already (then ``arange(n)``).
-        """
+        """The set's rows in grouped order: grouped row ``j`` is the set's row ``order[j]``."""
         if self._order is None:
             self._order = np.arange(len(self.meas))
         return self._order
@@ -252,11 +249,7 @@ class ObservationModel:
 
     @property
     def const_design(self) -> Array:
-        """``A_const`` ``(n, k)`` in grouped order, computed once.
-
-        The part of the nuisance design that does not depend on the geometry (carrier
-        columns ``1``, ``t``).
-        """
+        """``A_const`` ``(n, k)`` in grouped order, computed once."""
         if self._const_design is None:
             self._const_design = self.row_model.const_design()
         return self._const_design

@@ -138,10 +138,7 @@ class NoiseModel:
 
     @property
     def log_det(self) -> float:
-        """``log det R`` of the noise covariance (rows of SI units squared), on first use.
-
-        A pass of logarithms over every row, not needed by the fits: made when asked for.
-        """
+        """``log det R`` of the noise covariance (rows of SI units squared), on first use."""
         if not hasattr(self, "_log_det"):
             log_det = float(2.0 * np.sum(np.log(self._sigma)))
             for terms in self._log_det_blocks:  # per block size, blocks in the order found

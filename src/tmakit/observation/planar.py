@@ -97,21 +97,7 @@ def gradient_of_rows(obs: Any, rows: Array, r: Array) -> Array:
 
 
 class PlanarUnits:
-    """Sines and cosines of one planar angle kind's predictions, many parameter vectors at once.
-
-    For a grid of candidates scored by the chord of the angles
-    (:class:`~tmakit.batch.init.ChordScorer`): the relative east and north positions by one
-    product with the affine row map, then the model's ``planar_unit`` (for the bearing
-    ``(dx, dy) / r``): no angle is formed.  Made by :func:`planar_units`.
-
-    Parameters
-    ----------
-    head : numpy.ndarray
-        ``(2, p + 1, m)`` the map of the rows' relative east and north positions
-        (:meth:`~tmakit.observation.affine_rows.AffineRows.leading_map`).
-    unit : callable
-        The kind's ``planar_unit``.
-    """
+    """Sines and cosines of one planar angle kind's predictions, many parameter vectors at once."""
 
     def __init__(self, head: Array, unit: Any) -> None:
         self.head = head
@@ -188,19 +174,7 @@ def _chain_terms(rel_map: AffineRows, g: Array, jac: Array, in_place: bool) -> N
 
 
 class Linearisation:
-    """The predictions ``h0 + (A_const + A_var) @ nu`` of an :class:`ObservationModel`, linearised.
-
-    Grouped order, with ``d_h0`` ``(..., n, 6)`` (``d_h0_ref`` at reference samples) and per
-    geometry-dependent kind ``(kind, dA, dA_ref)``.
-
-    Parameters
-    ----------
-    obs : ObservationModel
-    theta : ndarray
-        ``(..., p)``, SI.
-    h0, a_var : ndarray
-        ``(..., n)`` and ``(..., n, k)``, SI.
-    """
+    """An :class:`ObservationModel`'s predictions linearised: ``h0 + (A_const + A_var) @ nu``."""
 
     #: The planar path's kind model, relative east and north ``(2, m)`` and weights, from
     #: which :attr:`h0` and :attr:`relative` are made on first use (a bound needs the
@@ -249,24 +223,7 @@ class Linearisation:
         self._relative = value
 
     def jacobian(self, nuisance: Array, with_h0: bool = True) -> Array:
-        """Return ``d predictions / d theta`` ``(..., n, p)`` at nuisance values.
-
-        Parameters
-        ----------
-        nuisance : ndarray
-            ``(..., k)``.
-        with_h0 : bool
-            False leaves out the derivative of ``h0``.
-
-        Returns
-        -------
-        ndarray
-
-        Raises
-        ------
-        ValueError
-            When made without derivatives.
-        """
+        """Return ``d predictions / d theta`` ``(..., n, p)`` at nuisance values."""
         if self.planar_jacobian is not None:  # no nuisance: the Jacobian itself, a new array once
             if not with_h0:
                 return np.zeros_like(self.planar_jacobian)

@@ -67,22 +67,7 @@ def resolve_models(kinds: Iterable[str],
 def nuisance_layout(models: Mapping[str, MeasurementModel],
                     tonals: Mapping[str, tuple[str, ...]] | None = None
                     ) -> tuple[tuple[str, ...], dict[str, slice]]:
-    """Return the nuisance structure of several kinds.
-
-    Parameters
-    ----------
-    models : mapping
-        Each kind's model, in kind order.
-    tonals : mapping, optional
-        The tonal labels of the kinds with one nuisance per tonal (two or more).
-
-    Returns
-    -------
-    names : tuple of str
-        The names of the concatenated nuisance vector (``carrier[LABEL]`` per tonal).
-    slices : dict
-        Each kind's slice of it.
-    """
+    """Return the nuisance structure of several kinds."""
     names: list[str] = []
     slices: dict[str, slice] = {}
     for kind, model in models.items():
@@ -204,34 +189,7 @@ class RowLayout:
 
 
 class RowModel:
-    """Rows of several kinds predicted by their measurement models.
-
-    Parameters
-    ----------
-    models : mapping
-        Each kind's model.
-    index : mapping
-        The rows of each kind (ascending indices or a slice), covering the ``m`` rows once.
-    time, time_ref : array_like
-        Row and reference times (m,), s.
-    sigma, sensor : array_like
-        Noise std (m,), SI, and sensor ids (m,).
-    sensor_state, ref_sensor_state : array_like
-        Sensor states (m, 6), m and m/s, at the rows' and the reference times.
-    layout : RowLayout, optional
-        A layout already made (``models`` and ``index`` then unused).
-    tonal : ndarray of str, optional
-        Each row's tonal label (:class:`RowLayout`).
-
-    Attributes
-    ----------
-    angle : ndarray of bool
-        Rows whose residuals wrap.
-    reference : ndarray of int or None
-        The rows of kinds that use a reference sample.
-    nuisance_names, nuisance_slices
-        The nuisance structure (:func:`nuisance_layout`).
-    """
+    """Rows of several kinds predicted by their measurement models."""
 
     def __init__(self, models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
                  time: ArrayLike, time_ref: ArrayLike, sigma: ArrayLike, sensor: ArrayLike,
@@ -269,21 +227,7 @@ class RowModel:
     # -- relative states ---------------------------------------------------------------------
     def relative(self, target: Array, target_ref: Array | None = None,
                  sensor_state: ArrayLike | None = None) -> tuple[Array, Array | None]:
-        """Return relative states (target minus sensor) from target states.
-
-        Parameters
-        ----------
-        target : ndarray
-            (..., m, 6) at the rows' times, m and m/s.
-        target_ref : ndarray, optional
-            (..., len(reference), 6) at the reference samples.
-        sensor_state : array_like, optional
-            Replaces the recorded sensor states (broadcastable to (..., m, 6)).
-
-        Returns
-        -------
-        rel, rel_ref : ndarray, ndarray or None
-        """
+        """Return relative states (target minus sensor) from target states."""
         sensor = self.sensor_state if sensor_state is None else np.asarray(sensor_state, float)
         rel = target - sensor
         rel_ref = None
@@ -294,21 +238,7 @@ class RowModel:
     # -- predictions and Jacobians -----------------------------------------------------------
     def predict(self, rel: Array, rel_ref: Array | None = None,
                 nuisance: Mapping[str, Array] | Array | None = None) -> Array:
-        """Return predicted values (..., m), SI.
-
-        Parameters
-        ----------
-        rel : ndarray
-            (..., m, 6), m and m/s.
-        rel_ref : ndarray, optional
-            (..., len(reference), 6).
-        nuisance : dict or ndarray, optional
-            A vector per kind, or the concatenated vector (..., k).
-
-        Returns
-        -------
-        ndarray
-        """
+        """Return predicted values (..., m), SI."""
         if len(self.models) == 1:  # one kind: its (new, writeable) predictions are the block's
             ((kind, model),) = self.models.items()
             ref = rel_ref if kind in self._ref_take else None
@@ -331,24 +261,7 @@ class RowModel:
     def jacobian(self, rel: Array, rel_ref: Array | None = None,
                  nuisance: Mapping[str, Array] | Array | None = None,
                  with_nuisance: bool = False) -> tuple[Array, Array | None, Array | None]:
-        """Return the analytic derivatives of :meth:`predict`.
-
-        Parameters
-        ----------
-        rel, rel_ref, nuisance
-            As for :meth:`predict`.
-        with_nuisance : bool
-            Also the derivatives by the nuisance vector.
-
-        Returns
-        -------
-        d_rel : ndarray
-            (..., m, 6).
-        d_ref : ndarray or None
-            (..., len(reference), 6).
-        d_nuisance : ndarray or None
-            (..., m, k).
-        """
+        """Return the analytic derivatives of :meth:`predict`."""
         d = np.empty(rel.shape)
         d_ref = None if rel_ref is None else np.empty(rel_ref.shape)
         d_nu = None
@@ -369,26 +282,12 @@ class RowModel:
         return d, d_ref, d_nu
 
     def reference_rows(self, kind: str) -> slice | None:
-        """Return where a kind's rows sit in arrays at the reference samples (None without).
-
-        Parameters
-        ----------
-        kind : str
-
-        Returns
-        -------
-        slice or None
-        """
+        """Return where a kind's rows sit in arrays at the reference samples (None without)."""
         return self._ref_take.get(kind)
 
     # -- nuisance structure: predictions affine in the nuisance ------------------------------
     def const_design(self) -> Array:
-        """Return ``A_const`` (m, k), the part of the nuisance design that ignores the geometry.
-
-        Returns
-        -------
-        ndarray
-        """
+        """Return ``A_const`` (m, k), the part of the nuisance design that ignores the geometry."""
         m, k = len(self), len(self.nuisance_names)
         out = np.zeros((m, k))
         if not k:  # no nuisance: no column
@@ -405,22 +304,7 @@ class RowModel:
     def linearise_into(self, rel: Array, rel_ref: Array | None, h0: Array, a_var: Array,
                        d_h0: Array | None = None, d_h0_ref: Array | None = None
                        ) -> list[tuple[str, Array | None, Array | None]]:
-        """Write the affine parts of the predictions, ``h0 + (A_const + A_var) @ nu``, in place.
-
-        Parameters
-        ----------
-        rel, rel_ref
-            As for :meth:`predict`.
-        h0, a_var : ndarray
-            Outputs (..., m) and (..., m, k), SI.
-        d_h0, d_h0_ref : ndarray, optional
-            Outputs (..., m, 6) and (..., len(reference), 6): derivatives of ``h0``.
-
-        Returns
-        -------
-        list of (kind, dA, dA_ref)
-            Per kind whose design depends on the geometry (``affine_derivatives``).
-        """
+        """Write the affine parts of the predictions, ``h0 + (A_const + A_var) @ nu``, in place."""
         d_a: list[tuple[str, Array | None, Array | None]] = []
         for kind, model in self.models.items():
             rows, ns = self._take[kind], self.nuisance_slices[kind]
@@ -449,45 +333,19 @@ class RowModel:
         return d_a
 
     def residual(self, measured: ArrayLike, predicted: ArrayLike) -> Array:
-        """Return ``measured - predicted`` (..., m), angle rows wrapped to (-pi, pi].
-
-        Parameters
-        ----------
-        measured, predicted : array_like
-            (..., m), SI.
-
-        Returns
-        -------
-        ndarray
-        """
+        """Return ``measured - predicted`` (..., m), angle rows wrapped to (-pi, pi]."""
         diff = np.asarray(measured, dtype=float) - np.asarray(predicted, dtype=float)
         return np.where(self.angle, wrap_angle(diff), diff)
 
     # -- noise -------------------------------------------------------------------------------
     def correlated_blocks(self, singletons: bool = True
                           ) -> list[tuple[NDArray[np.intp], Array]]:
-        """Return the noise blocks that are not diagonal.
-
-        Parameters
-        ----------
-        singletons : bool, optional
-            Also give each independent row as a 1 x 1 block.
-
-        Returns
-        -------
-        list of (rows, covariance)
-            Row indices and their covariance, SI squared.
-        """
+        """Return the noise blocks that are not diagonal."""
         return correlated_blocks(self.models, self.index, self.time, self.time_ref,
                                  self.sigma, self.sensor, singletons, self.ref_sensor_state)
 
     def covariance(self) -> Array:
-        """Return the noise covariance ``R`` (m, m), SI squared, with the kinds' correlated blocks.
-
-        Returns
-        -------
-        ndarray
-        """
+        """Return the noise covariance ``R`` (m, m), SI squared, with the correlated blocks."""
         r = np.diag(self.sigma**2)
         for rows, cov in self.correlated_blocks():
             r[np.ix_(rows, rows)] = cov

@@ -261,22 +261,7 @@ def _varpro_batch(theta: Array, u: Array, nu_star: Array, blocks: IntArray,
 
 
 class BatchPlan:
-    """The per-row arrays the kernel reads, made once per problem.
-
-    Parameters
-    ----------
-    blocks, block_param : ndarray
-        Per kind ``(K, 4)`` int: its rows' slice ``lo, hi`` (grouped order), kind code and
-        nuisance column (-1: none); ``(K,)`` its parameter (speed of propagation, m/s, or
-        path-loss exponent).
-    const, angle, w : ndarray
-        ``(n,)`` constant design entry, angle flag, inverse sigma.
-    offset : ndarray
-        ``(6, n)`` relative states at ``theta = 0`` (m, m/s).
-    t_par, t_comp, t_coef, t_one : ndarray
-        The affine map's non-zero terms: parameter, state component, ``(T, n)`` coefficient
-        (s or 1) and whether it is one on every row.
-    """
+    """The per-row arrays the kernel reads, made once per problem."""
 
     def __init__(self, blocks: IntArray, block_param: Array, const: Array, angle: BoolArray,
                  w: Array, offset: Array, t_par: IntArray, t_comp: IntArray, t_coef: Array,
