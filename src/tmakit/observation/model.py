@@ -306,33 +306,6 @@ class ObservationModel:
                                                 lin.d_h0_ref)
         return lin
 
-    def linearise_grouped(self, theta: ArrayLike, derivatives: bool = True
-                          ) -> tuple[Array, Array, Array, Array | None, Array | None]:
-        """Return the affine parts and their ``theta`` derivatives in grouped order, one pass.
-
-        Parameters
-        ----------
-        theta : array_like
-            Motion parameters ``(..., p)``, SI.
-        derivatives : bool
-            Also return ``dh0`` and ``dA`` (else None).
-
-        Returns
-        -------
-        tuple of ndarray
-            h0 (..., n), A_const and A_var (..., n, k), dh0 (..., n, p), dA (..., n, k, p).
-        """
-        lin = self.linearisation(theta, derivatives)
-        a_const = np.broadcast_to(self.const_design, lin.a_var.shape).copy()
-        if not derivatives:
-            return lin.h0, a_const, lin.a_var, None, None
-        k, p = self.n_nuisance, self.motion.n_params
-        dh0 = lin.jacobian(np.zeros(k))
-        d_a = np.zeros((*lin.a_var.shape, p))
-        for j in range(k):
-            d_a[..., j, :] = lin.jacobian(np.eye(k)[j], with_h0=False)
-        return lin.h0, a_const, lin.a_var, dh0, d_a
-
     def predict_grouped(self, theta: ArrayLike, nuisance: ArrayLike | None = None) -> Array:
         """Return :meth:`predict` in grouped order.
 
