@@ -1,11 +1,8 @@
 """Maximum-likelihood batch estimation: ``tk.estimate(meas, motion)`` with no initial guess.
 
-The weighted least-squares fit, nuisance eliminated (:mod:`tmakit.batch.solver`), started from
-the likelihood grid (:mod:`tmakit.batch.init`); many rows are first solved on a subset
-(:func:`solve_all_rows`, :func:`solve_on_subset_first`); a 3-D track and its mirror image
-through the sensors' plane are told apart by :func:`prefer_above`; sensor position errors (Ho,
-Lu & Kovavisaruch (2007)) are integrated out by :func:`estimate_with_sensor_errors`.
-docs/estimation.md explains each.
+The weighted least-squares fit (:mod:`tmakit.batch.solver`) from the likelihood grid
+(:mod:`tmakit.batch.init`), many rows solved on a subset first; sensor position errors (Ho, Lu &
+Kovavisaruch (2007)) integrated out by :func:`estimate_with_sensor_errors`.
 """
 
 from __future__ import annotations

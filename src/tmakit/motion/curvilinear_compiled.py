@@ -1,12 +1,8 @@
 """Curvilinear propagation, its chain rule and its normal equations, compiled.
 
-The closed form of one curvilinear segment and its derivatives, the one implementation
-(:func:`propagate_with_partials`: sensor turns, the bounds), the chaining of change-over
-states (:func:`piecewise`: forwards and backwards from the reference time for
-:class:`~tmakit.motion.PiecewiseCurvilinear`, forwards for
-:class:`tmakit.motion.curvilinear.ForwardPiecewise`), and the latter's hot loops: its chain
-rule and ``J'J = sum_s D_s' (sum_i v_i v_i') D_s`` by segments (7 inputs per segment).
-float64, no ``fastmath``, sums in a fixed order.
+One segment's closed form and derivatives (:func:`propagate_with_partials`), the chaining of
+change-over states (:func:`piecewise`) and :class:`~tmakit.motion.curvilinear.ForwardPiecewise`'s
+chain rule and ``J'J`` by segments.  float64, no ``fastmath``, sums in a fixed order.
 
 References
 ----------

@@ -1,11 +1,8 @@
 """A group of measurement rows predicted from a filter state.
 
 Rows at times ``t_i`` are predicted from the state moved at constant velocity,
-``x(t_i) = Phi(t_i - t) x(t)`` (and back to a reference sample: Chen & Sun, §2.3-2.4), by
-:class:`~tmakit.observation.rows.RowModel`, vectorised over states and sensor states.  Nuisance
-values must be given.  :func:`radar_group` is the radar's group with its full (range,
-range-rate) covariance: what ``RadarModel.group`` would be, were
-:class:`~tmakit.sensors.RadarModel` not below the observation layer.
+``x(t_i) = Phi(t_i - t) x(t)`` (and back to a reference sample: Chen & Sun, §2.3-2.4), nuisance
+values given.  :func:`radar_group` is the radar's group with its full covariance.
 """
 
 from __future__ import annotations

@@ -1,14 +1,8 @@
 """The measurement noise covariance of a measurement set, and whitening by it.
 
-Most rows are independent with their own sigma.  Kinds with correlated noise declare it
-through their hooks (:attr:`~tmakit.measurements.MeasurementModel.correlated_noise`,
-:meth:`~tmakit.measurements.MeasurementModel.noise_covariance`): range differences of one
-sensor that share pulse intervals (Chen & Sun, eq. 1: one noise term per interval).  Their
-blocks are dense and whitened with their eigen-decomposition.
-
-Sensor positions known to a covariance (:func:`effective_noise`): rows sharing a reported
-sensor position share its error, so the noise is ``R + H_b Q_b H_b'`` (Ho, Lu & Kovavisaruch
-(2007): their CRLB with sensor position errors).
+Correlated blocks (range differences sharing pulse intervals, Chen & Sun, eq. 1) are whitened
+by their eigen-decomposition.  Sensor positions known to a covariance add ``H_b Q_b H_b'`` to
+``R`` (:func:`effective_noise`; Ho, Lu & Kovavisaruch (2007)).
 """
 
 from __future__ import annotations

@@ -1,9 +1,7 @@
 """The planar linearisation: prediction and Jacobian of one two-component kind under affine motion.
 
-Under affine motion each relative component is ``offset + sum_i theta_i coef_i``, so the
-Jacobian ``d h / d theta_i = sum_c (d h / d rel_c) coef[i, c]`` is written directly over the
-components the kind uses, with the same operations as the general path.
-:class:`Linearisation` holds what either path makes, for the solvers.
+Under affine motion ``d h / d theta_i = sum_c (d h / d rel_c) coef[i, c]`` is written directly
+over the components the kind uses; :class:`Linearisation` holds what either path makes.
 """
 
 from __future__ import annotations

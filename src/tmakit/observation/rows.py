@@ -2,10 +2,7 @@
 
 :class:`RowModel` gives predictions, Jacobians, the noise covariance with the correlated blocks
 kinds declare (Chen & Sun, eq. 1) and the nuisance structure, through the kinds' hooks only: a
-new kind needs no change here.  Rows are grouped by kind from the categorical kind codes
-(:func:`group_by_kind`); the correlated noise blocks are TDOA/FDOA rows sharing a reference at
-one time, and range differences whose spans share pulse intervals, found in ``O(m log m)``
-(:func:`correlated_blocks`).
+new kind needs no change here.
 """
 
 from __future__ import annotations
