@@ -53,7 +53,7 @@ class EstimateResult:
     chi2 : float
         The weighted sum of squares at the estimate.
     method : str
-        A key of :data:`tmakit.batch.methods.METHODS`.
+        A key of :data:`tmakit.batch.METHODS`.
     motion : MotionModel
     bound : Bound, optional
         The information at the estimate (None for the papers' own covariances).
