@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
+from rich.markup import escape
 
 from .common import (
     DriftOption,
@@ -559,7 +560,7 @@ def print_solutions(result: Any, meas: Any, units: str) -> None:
 def print_warnings(warnings: list[Any]) -> None:
     """Print each sanity warning on standard error as ``warning: ...``."""
     for w in warnings:
-        err.print(f"[bold yellow]warning:[/] {w.message}", soft_wrap=True)
+        err.print(f"[bold yellow]warning:[/] {escape(w.message)}", markup=True, soft_wrap=True)
 
 
 def answer_or_fail(source: Any, meas: Any, sensor: str | None, **where: Any) -> Any:

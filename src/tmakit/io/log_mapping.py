@@ -157,11 +157,16 @@ def _explain(source: str, err: ValidationError) -> MappingError:
     return MappingError(f"{source}: the column mapping is not valid:\n" + "\n".join(lines))
 
 
-def load_mapping(path: str | os.PathLike[str]) -> LogMapping:
-    """Read a mapping TOML file (``track`` is taken relative to its folder)."""
+def load_mapping(path: str | os.PathLike[str], track: str | None = None) -> LogMapping:
+    """Read a mapping TOML file (``track`` is taken relative to its folder).
+
+    A ``track`` given here (the command line's own track file) replaces the file's, as is.
+    """
     path = Path(path)
     data = read_toml(path, "mapping", MappingError)
     try:
+        if track is not None:
+            return LogMapping.model_validate({**data, "track": str(track)})
         return LogMapping.model_validate(data).resolve_track(path.parent)
     except ValidationError as e:
         raise _explain(str(path), e) from None
@@ -171,9 +176,9 @@ _POSITION_KEYS = ("lat", "lon", "alt", "east", "north", "up", "altitude")
 _VELOCITY_KEYS = {"vn": "north", "ve": "east", "vd": "down", "vu": "up"}
 
 
-def mapping_from_text(text: str, measures: list[str]) -> LogMapping:
-    """Build a mapping from command-line text."""
-    data: dict[str, Any] = {}
+def mapping_from_text(text: str, measures: list[str], track: str | None = None) -> LogMapping:
+    """Build a mapping from command-line text (``track``: the command line's own track file)."""
+    data: dict[str, Any] = {} if track is None else {"track": str(track)}
     position: dict[str, str] = {}
     velocity: dict[str, str] = {}
     for part in (p for p in text.split(",") if p.strip()):
