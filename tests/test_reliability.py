@@ -365,6 +365,11 @@ def test_a_scenario_asking_for_too_many_rows_is_refused(tmp_path):
     (("crlb", "{obs}", "--motion", "cv2d", "--truth", "x=4000,x=5"), "x is given twice"),
     (("crlb", "{obs}", "--motion", "cv2d", "--truth", "x=nan,y=1"), "not a finite number"),
     (("track", "{obs}", "--prior-time", "nan"), "--prior-time nan"),
+    (("track", "{obs}", "--range-prior", "1000:inf"),
+     "--range-prior '1000:inf': expected MIN:MAX in metres (finite numbers)"),
+    (("track", "{obs}", "--height-prior", "nan:10"), "--height-prior 'nan:10'"),
+    (("estimate", "{obs}", "--motion", "cv2d", "--from", "100", "--to", "50"),
+     "--from 100 is after --to 50"),
 ])
 def test_non_finite_or_repeated_option_values_are_refused(obs, args, words):
     result = run(*(a.format(obs=obs) for a in args))

@@ -423,6 +423,9 @@ def select_window(meas: Any, start: str | None, stop: str | None) -> Any:
     t_from, t_to = parse_time(start, meas, "--from"), parse_time(stop, meas, "--to")
     if t_from is None and t_to is None:
         return meas
+    if t_from is not None and t_to is not None and t_from > t_to:
+        raise fail(f"--from {start} is after --to {stop} ({t_from:g} s > {t_to:g} s): give the "
+                   "leg's start first")
     keep = ((meas.time >= (t_from if t_from is not None else -float("inf")))
             & (meas.time <= (t_to if t_to is not None else float("inf"))))
     if int(keep.sum()) == 0:

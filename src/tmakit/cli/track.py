@@ -533,8 +533,11 @@ def _interval(text: str, flag: str) -> tuple[float, float]:
         if len(parts) != 2:
             raise ValueError
         lo, hi = float(parts[0]), float(parts[1])
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise ValueError
     except ValueError:
-        raise fail(f"{flag} {text!r}: expected MIN:MAX in metres, e.g. 1000:30000") from None
+        raise fail(f"{flag} {text!r}: expected MIN:MAX in metres (finite numbers), e.g. "
+                   "1000:30000") from None
     return lo, hi
 
 
