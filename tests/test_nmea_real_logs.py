@@ -157,3 +157,55 @@ def test_an_error_with_brackets_is_printed_as_written(tmp_path):
         result = CliRunner().invoke(app, ["import", "wide", str(log), "--mapping", str(toml),
                                           "-o", str(out)])
         assert result.exit_code == 2 and said in result.output, result.output
+
+
+# -- PX4 flight-controller GPS logs (tests/data/px4) ----------------------------------------
+PX4 = Path(__file__).parent / "data" / "px4"
+
+
+def px4_with_rssi(tmp_path, name):
+    """The real log with a power column added (the logs hold no measurement of an emitter)."""
+    import pandas as pd
+
+    log = pd.read_csv(PX4 / name)
+    log["rssi_dbm"] = -70.0 + 0.1 * np.arange(len(log))
+    path = tmp_path / name
+    log.to_csv(path, index=False)
+    return path, log
+
+
+def test_px4_logs_before_v1_14_write_positions_in_1e7_degrees_and_millimetres(tmp_path):
+    path, log = px4_with_rssi(tmp_path, "sample_log_small_vehicle_gps_position_0.csv")
+    runner = CliRunner()
+    guess = runner.invoke(app, ["import", "wide", str(path), "--guess"])
+    assert guess.exit_code == 0, guess.output
+    assert 'lat_lon_unit = "1e-7 deg"' in guess.output and 'alt_unit = "mm"' in guess.output
+    assert "heading" not in guess.output.split("# columns not used")[0]  # radians, unused
+    mapping = tmp_path / "px4.toml"
+    mapping.write_text(guess.output)
+    out = tmp_path / "px4.parquet"
+    done = runner.invoke(app, ["import", "wide", str(path), "--mapping", str(mapping), "-o",
+                               str(out)])
+    assert done.exit_code == 0, done.output
+    ms = tk.read_measurements(out)
+    assert float(ms.metadata["origin_lat"]) == pytest.approx(log["lat"][0] * 1e-7)
+    assert float(ms.metadata["origin_lon"]) == pytest.approx(log["lon"][0] * 1e-7)
+    assert float(ms.metadata["origin_alt"]) == pytest.approx(log["alt_ellipsoid"][0] / 1e3)
+    assert ms.metadata["time_origin"] == "2021-04-21T06:30:58Z"  # time_utc_usec 1618986658.6 s
+    mapping.write_text(guess.output.replace('lat_lon_unit = "1e-7 deg"', ""))
+    refused = runner.invoke(app, ["import", "wide", str(path), "--mapping", str(mapping), "-o",
+                                  str(tmp_path / "no.csv")])
+    assert refused.exit_code == 2
+    assert "holds integers up to 634170622: latitudes in 1e-7 degrees" in refused.output
+
+
+def test_px4_logs_from_v1_14_read_with_the_guessed_mapping(tmp_path):
+    path, log = px4_with_rssi(tmp_path, "sample_px4_events_vehicle_gps_position_0_head30.csv")
+    runner = CliRunner()
+    guess = runner.invoke(app, ["import", "wide", str(path), "--guess"])
+    assert guess.exit_code == 0 and "lat_lon_unit" not in guess.output, guess.output
+    mapping = tmp_path / "px4.toml"
+    mapping.write_text(guess.output)
+    ms = tk.read_measurements(path, format="wide", mapping=mapping)
+    assert len(ms) == 30 and float(ms.metadata["origin_lat"]) == pytest.approx(
+        log["latitude_deg"][0])

@@ -118,13 +118,22 @@ def _row_positions(tab: _Table, m: LogMapping) -> tuple[Fixes | None, NDArray | 
         return None, None
     if p.geodetic:
         assert p.lat is not None and p.lon is not None
-        lat = tab.numbers(p.lat, "a latitude (deg)")
-        lon = tab.numbers(p.lon, "a longitude (deg)")
-        alt = tab.numbers(p.alt, "an altitude (m)") if p.alt else np.zeros(lat.shape)
+        lat = tab.numbers(p.lat, f"a latitude ({p.lat_lon_unit})") * p.lat_lon_scale
+        lon = tab.numbers(p.lon, f"a longitude ({p.lat_lon_unit})") * p.lat_lon_scale
+        alt = (tab.numbers(p.alt, f"an altitude ({p.alt_unit})") * p.alt_scale if p.alt
+               else np.zeros(lat.shape))
         fixes = Fixes(np.zeros(lat.shape, np.int64), lat, lon, alt)
         if not tab.problems:  # the file's rules on the values read (tmakit.rules)
             columns = {"latitude": p.lat, "longitude": p.lon, "altitude": p.alt}
-            tab.problems += fix_problems(fixes, lambda k, q: tab.where(k, columns[q] or q))
+            found = fix_problems(fixes, lambda k, q: tab.where(k, columns[q] or q))
+            big = np.abs(lat[np.isfinite(lat)])
+            if found and p.lat_lon_unit == "deg" and big.size and np.all(big == np.round(big)) \
+                    and 90.0 < big.max() <= 90e7:
+                found.insert(0, f"column {p.lat!r} holds integers up to {big.max():.0f}: "
+                             "latitudes in 1e-7 degrees (as PX4 before v1.14 writes them)? "
+                             'Then give lat_lon_unit = "1e-7 deg" (and alt_unit = "mm" for '
+                             "millimetres) in [position]")
+            tab.problems += found
         return fixes, None
     assert p.east is not None and p.north is not None
     enu = np.column_stack([tab.numbers(p.east, "east (m)"), tab.numbers(p.north, "north (m)"),
