@@ -412,3 +412,15 @@ def test_a_parquet_list_column_is_a_clear_error_not_a_schema_dump(tmp_path):
     assert result.exit_code == 2, result.output
     assert "column 'value': expected numbers" in result.output
     assert "DATATYPE_COERCION" not in result.output
+
+
+def test_an_mplbackend_matplotlib_does_not_know_does_not_stop_a_picture(obs, tmp_path):
+    import subprocess
+    import sys
+
+    out = tmp_path / "p.png"
+    done = subprocess.run([sys.executable, "-m", "tmakit.cli", "show", str(obs), "--plot",
+                           str(out)], env={**os.environ, "MPLBACKEND": "nonsense"},
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert out.stat().st_size > 0
