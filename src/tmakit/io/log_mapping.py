@@ -379,7 +379,10 @@ def guess_mapping(path: str | os.PathLike[str]) -> MappingGuess:
     if path.suffix.lower() in (".parquet", ".pq"):
         frame = pd.read_parquet(path).head(5).astype(str)
     else:
-        frame = pd.read_csv(path, dtype=str, nrows=5, encoding="utf-8-sig")
+        from .wide_log import csv_separator
+
+        frame = pd.read_csv(path, dtype=str, nrows=5, encoding="utf-8-sig",
+                            sep=csv_separator(path))
     names = [str(c) for c in frame.columns]
     keys = {_key(n): n for n in names}
     guess = MappingGuess()

@@ -45,8 +45,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from .log_mapping import LogMapping
 
-__all__ = ["GPX", "NMEA", "WIDE", "read_gpx_fixes", "read_nmea_fixes", "read_track_fixes",
-           "read_track_log", "read_wide_log"]
+__all__ = ["GPX", "NMEA", "WIDE", "csv_separator", "read_gpx_fixes", "read_nmea_fixes",
+           "read_track_fixes", "read_track_log", "read_wide_log"]
 
 
 class _Table:
@@ -100,13 +100,26 @@ def _load(path: Path) -> _Table:
         except (OSError, ValueError) as e:
             raise MeasurementFileError(path, [f"cannot be read as Parquet ({e})"]) from None
     try:
+        sep = csv_separator(path)
         frame = pd.read_csv(path, dtype=str, keep_default_na=False, skip_blank_lines=False,
-                            encoding="utf-8-sig")
+                            encoding="utf-8-sig", sep=sep)
     except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as e:
         raise MeasurementFileError(path, [f"cannot read the CSV table ({e})"]) from None
+    if sep != ",":  # a spreadsheet's export may write decimal commas: 47,95 is 47.95
+        frame = frame.replace(_DECIMAL_COMMA, r"\1.\2", regex=True)
     lines = np.arange(len(frame), dtype=np.int64) + 2
     keep = ~(frame.astype(str).apply(lambda c: c.str.strip() == "")).all(axis=1).to_numpy()
     return _Table(path, frame[keep].reset_index(drop=True), lines[keep])
+
+
+_DECIMAL_COMMA = r"^(\s*[-+]?\d*),(\d+(?:[eE][-+]?\d+)?\s*)$"
+
+
+def csv_separator(path: Path) -> str:
+    """Give a CSV log's field separator: ``,``, or ``;`` or a tab when its header has those."""
+    with open(path, encoding="utf-8-sig", errors="replace") as f:
+        header = f.readline()
+    return max((",", ";", "\t"), key=header.count) if header.count(",") == 0 else ","
 
 
 def _row_positions(tab: _Table, m: LogMapping) -> tuple[Fixes | None, NDArray | None]:
