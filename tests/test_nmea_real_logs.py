@@ -209,3 +209,27 @@ def test_px4_logs_from_v1_14_read_with_the_guessed_mapping(tmp_path):
     ms = tk.read_measurements(path, format="wide", mapping=mapping)
     assert len(ms) == 30 and float(ms.metadata["origin_lat"]) == pytest.approx(
         log["latitude_deg"][0])
+
+
+def test_measurements_in_a_long_gap_of_the_own_track_are_warned_of(tmp_path):
+    # fixes every 10 s, then none for 20 minutes (a GPX track's two segments, a receiver off)
+    seconds = [*range(0, 100, 10), *range(1300, 1400, 10)]
+    body = "".join(f'<trkpt lat="{45 + k * 1e-4}" lon="14.0"><time>'
+                   f"{np.datetime64('2020-01-01T00:00:00') + np.timedelta64(s, 's')}Z</time>"
+                   "</trkpt>" for k, s in enumerate(seconds))
+    gpx = tmp_path / "t.gpx"
+    gpx.write_text('<?xml version="1.0"?><gpx version="1.1" creator="x" '
+                   'xmlns="http://www.topografix.com/GPX/1/1"><trk><trkseg>'
+                   f"{body}</trkseg></trk></gpx>")
+    epoch = 1577836800  # 2020-01-01T00:00:00Z
+    log = tmp_path / "b.csv"
+    log.write_text("epoch_s,bearing_deg\n" + "".join(
+        f"{epoch + s},45\n" for s in (5, 50, 600, 700, 1350)))
+    toml = tmp_path / "b.toml"
+    toml.write_text('time = "epoch_s"\nsensor = "ship"\n[[measurement]]\ncolumn = "bearing_deg"'
+                    '\nkind = "bearing"\nunit = "deg"\nsigma = 1.0\n')
+    ms = tk.read_measurements(gpx, measurements=log, mapping=toml)
+    warned = [n for n in reader_notes(ms.metadata) if n.startswith("warning")]
+    assert len(warned) == 1 and warned[0].startswith(
+        "warning: 2 measurements fall where the own track has no fix for more than 100 s "
+        "(the longest gap: 1210 s, from 2020-01-01T00:01:30Z)")

@@ -257,7 +257,25 @@ def _track_states(tab: _Table, track: Fixes, frame: LocalFrame, t: NDArray[np.fl
         tab.problems.append(f"{tab.where(int(k), 'time')}: time {iso_utc(t0)} + "
                             f"{t[k]:g} s is outside the own track ({span})")
     tab.fail()
+    _gap_warning(track, tf, t, t0)
     return states
+
+
+def _gap_warning(track: Fixes, tf: NDArray[np.float64], t: NDArray[np.float64], t0: int) -> None:
+    """Warn of measurements between fixes far apart (a receiver off, a track's segments)."""
+    if tf.size < 3:
+        return
+    step = np.diff(tf)
+    long = max(60.0, 10.0 * float(np.median(step)))
+    at = np.clip(np.searchsorted(tf, t, side="right") - 1, 0, tf.size - 2)
+    inside = (step[at] > long) & (t > tf[at]) & (t < tf[at + 1])
+    if inside.any():
+        worst = int(at[inside][np.argmax(step[at[inside]])])
+        track.notes.append(
+            f"warning: {int(inside.sum())} measurements fall where the own track has no fix "
+            f"for more than {long:g} s (the longest gap: {step[worst]:g} s, from "
+            f"{iso_utc(int(track.time_ns[worst]))}): their positions are interpolated in a "
+            "straight line across the gap, which the sensor may not have followed")
 
 
 def read_wide_log(path: str | os.PathLike[str], *, mapping: Any = None,
