@@ -16,7 +16,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from ..core.input_files import read_toml
-from .logs import EPOCH_UNITS, KNOT, LATEST_NS, YARD
+from .logs import EPOCH_UNITS, KNOT, LATEST_NS, YARD, csv_separator
 
 __all__ = ["UNITS", "LogMapping", "MappingError", "MappingGuess", "guess_mapping", "load_mapping",
            "mapping_from_text"]
@@ -379,8 +379,6 @@ def guess_mapping(path: str | os.PathLike[str]) -> MappingGuess:
     if path.suffix.lower() in (".parquet", ".pq"):
         frame = pd.read_parquet(path).head(5).astype(str)
     else:
-        from .wide_log import csv_separator
-
         frame = pd.read_csv(path, dtype=str, nrows=5, encoding="utf-8-sig",
                             sep=csv_separator(path))
     names = [str(c) for c in frame.columns]

@@ -10,6 +10,7 @@ import math
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -24,11 +25,10 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["EPOCH_UNITS", "KNOT", "LATEST_NS", "PLAUSIBLE_YEARS", "SURFACE_TOLERANCE_M",
            "VELOCITY_WINDOW_S", "YARD", "Fixes", "LocalFrame", "checked_rows",
-           "clock_time_problem", "clock_times", "course_speed_velocity", "fill_altitudes",
-           "fix_problems",
-           "interpolate_heading", "interpolate_states", "iso_utc", "local_frame",
-           "parse_clock_times", "relative_seconds", "seconds_of_time_text", "surface_dim",
-           "time_origin_ns", "velocity_from_positions"]
+           "clock_time_problem", "clock_times", "course_speed_velocity", "csv_separator",
+           "fill_altitudes", "fix_problems", "interpolate_heading", "interpolate_states",
+           "iso_utc", "local_frame", "parse_clock_times", "relative_seconds",
+           "seconds_of_time_text", "surface_dim", "time_origin_ns", "velocity_from_positions"]
 
 
 #: Sensors whose altitudes all lie within this many metres of the origin's are on a surface
@@ -210,6 +210,13 @@ def interpolate_states(t_fix: NDArray[np.float64], states: NDArray[np.float64],
     eps = 1e-9 * max(1.0, float(np.max(np.abs(t_fix)))) if len(t_fix) else 0.0
     outside = (t < t_fix[0] - eps) | (t > t_fix[-1] + eps) if len(t_fix) else np.ones(t.shape, bool)
     return out, outside
+
+
+def csv_separator(path: Path) -> str:
+    """Give a CSV log's field separator: ``,``, or ``;`` or a tab when its header has those."""
+    with open(path, encoding="utf-8-sig", errors="replace") as f:
+        header = f.readline()
+    return max((",", ";", "\t"), key=header.count) if header.count(",") == 0 else ","
 
 
 def fill_altitudes(time_ns: NDArray[np.int64], alt: NDArray[np.float64], what: str

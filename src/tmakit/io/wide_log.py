@@ -28,6 +28,7 @@ from .logs import (
     checked_rows,
     clock_time_problem,
     course_speed_velocity,
+    csv_separator,
     fill_altitudes,
     fix_problems,
     interpolate_heading,
@@ -45,8 +46,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from .log_mapping import LogMapping
 
-__all__ = ["GPX", "NMEA", "WIDE", "csv_separator", "read_gpx_fixes", "read_nmea_fixes",
-           "read_track_fixes", "read_track_log", "read_wide_log"]
+__all__ = ["GPX", "NMEA", "WIDE", "read_gpx_fixes", "read_nmea_fixes", "read_track_fixes",
+           "read_track_log", "read_wide_log"]
 
 
 class _Table:
@@ -115,11 +116,6 @@ def _load(path: Path) -> _Table:
 _DECIMAL_COMMA = r"^(\s*[-+]?\d*),(\d+(?:[eE][-+]?\d+)?\s*)$"
 
 
-def csv_separator(path: Path) -> str:
-    """Give a CSV log's field separator: ``,``, or ``;`` or a tab when its header has those."""
-    with open(path, encoding="utf-8-sig", errors="replace") as f:
-        header = f.readline()
-    return max((",", ";", "\t"), key=header.count) if header.count(",") == 0 else ","
 
 
 def _row_positions(tab: _Table, m: LogMapping) -> tuple[Fixes | None, NDArray | None]:
