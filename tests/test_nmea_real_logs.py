@@ -17,7 +17,7 @@ import tmakit as tk
 from tmakit.cli import app
 from tmakit.io import MeasurementFileError
 from tmakit.io.errors import reader_notes
-from tmakit.io.wide_log import read_gpx_fixes, read_nmea_fixes
+from tmakit.io.wide_log import read_gpx_fixes, read_nmea_fixes, read_track_fixes
 
 DATA = Path(__file__).parent / "data" / "nmea"
 
@@ -233,3 +233,12 @@ def test_measurements_in_a_long_gap_of_the_own_track_are_warned_of(tmp_path):
     assert len(warned) == 1 and warned[0].startswith(
         "warning: 2 measurements fall where the own track has no fix for more than 100 s "
         "(the longest gap: 1210 s, from 2020-01-01T00:01:30Z)")
+
+
+def test_binary_packets_between_the_sentences_are_skipped_as_gpsd_skips_them():
+    fx = read_track_fixes(DATA / "ac12_binary.log")  # Ashtech $PASHR binary packets, NUL bytes
+    assert (DATA / "ac12_binary.log").read_bytes().count(b"\0") > 0
+    assert [stamp(fx, k)[11:19] for k in (0, 4)] == ["18:35:30", "18:35:34"]
+    assert fx.lines.tolist() == [14, 31, 46, 62, 77]
+    assert fx.lat[0] == pytest.approx(dm(20, 37.76012)) and fx.lon[0] == pytest.approx(
+        -dm(87, 4.07373))

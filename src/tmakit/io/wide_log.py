@@ -618,13 +618,25 @@ def read_nmea_fixes(path: str | os.PathLike[str]) -> Fixes:
                  heading if np.isfinite(heading).any() else None, notes + filled)
 
 
+def _has_sentences(path: Path) -> bool:
+    """Whether a file's first bytes hold an NMEA sentence's start (``$GPRMC``, ``$GNGGA``)."""
+    from ..core.input_files import SNIFF_BYTES
+
+    with open(path, "rb") as f:
+        head = f.read(SNIFF_BYTES)
+    return re.search(rb"\$[A-Z]{2}(RMC|GGA|VTG|HDT|ZDA),", head) is not None
+
+
 def read_track_fixes(path: str | os.PathLike[str]) -> Fixes:
     """Read a sensor track by its suffix: ``.gpx`` (GPX), else NMEA 0183."""
     path = Path(path)
     if not path.exists():
         raise MeasurementFileError(path, ["no such track file"])
-    refuse_unreadable(path)
-    if path.suffix.lower() == ".gpx":
+    gpx = path.suffix.lower() == ".gpx"
+    refuse_unreadable(path, binary=True)  # an NMEA log may hold a receiver's binary messages
+    if gpx or not _has_sentences(path):  # (u-blox UBX, SiRF) between its sentences, as gpsd
+        refuse_unreadable(path)  # reads them; a file without a sentence is refused as binary
+    if gpx:
         fixes = read_gpx_fixes(path)
         found = fix_problems(fixes, lambda k, q: f"point at {iso_utc(int(fixes.time_ns[k]))}, {q}")
     else:
