@@ -242,3 +242,16 @@ def test_binary_packets_between_the_sentences_are_skipped_as_gpsd_skips_them():
     assert fx.lines.tolist() == [14, 31, 46, 62, 77]
     assert fx.lat[0] == pytest.approx(dm(20, 37.76012)) and fx.lon[0] == pytest.approx(
         -dm(87, 4.07373))
+
+
+def test_following_an_own_track_alone_is_refused_at_once_not_awaited(tmp_path):
+    track = tmp_path / "own.nmea"
+    track.write_bytes((DATA / "saab-r4.log").read_bytes())
+    runner = CliRunner()
+    for args, given in ((["track", "--follow", str(track)], None),
+                        (["track", "--follow", "-", "--format", "nmea"], track.read_text())):
+        result = runner.invoke(app, [*args, "--max-updates", "1", "--interval", "0.01"],
+                               input=given)
+        assert result.exit_code == 2, result.output
+        assert "a GPX or NMEA own track gives the sensor's positions only; follow the " \
+               "measurement log" in " ".join(result.output.split())

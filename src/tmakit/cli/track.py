@@ -787,6 +787,14 @@ class _Source:
         return True
 
 
+def own_track_only(path: Path, fmt: str | None) -> bool:
+    """Whether a file is read as a GPX or NMEA own track (no measurements of its own)."""
+    from ..io.formats import find_format
+
+    found = find_format(path, fmt, reading=True)
+    return found is not None and found.name in ("gpx", "nmea")
+
+
 class GrowingFiles:
     """Snapshots of growing text files (their complete lines), in a folder."""
 
@@ -806,6 +814,11 @@ class GrowingFiles:
                     raise fail(f"--follow {path}: follows text files (REP/DSF, NMEA, CSV), "
                                "not Parquet")
                 name = path.name
+            if own_track_only(path if str(path) != "-" else Path(name), fmt):
+                raise fail(f"--follow {path}: a GPX or NMEA own track gives the sensor's "
+                           "positions only; follow the measurement log, whose mapping names "
+                           "the track (tma track --follow LOG.csv --mapping MAP.toml, the "
+                           "mapping's track = \"own.nmea\" read anew at each look)")
             if name in names:
                 name = f"{k}-{name}"
             names.add(name)
