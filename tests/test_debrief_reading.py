@@ -184,3 +184,49 @@ def test_the_commands_take_several_files_kinds_and_clock_times(tmp_path):
     assert bad.exit_code == 2 and "--ranges applies to Debrief files" in bad.output
     kept = runner.invoke(app, ["show", str(out), "--kinds", "bearing"])
     assert kept.exit_code == 0, kept.output
+
+
+# Debrief's SATC "B_Rate" pair (sample_data/SATC/B_Rate_Ownship.rep and B_Rate_Sensor.dsf,
+# commit 2e4d42e143dfecb38444c9845a905b69354079cf): the own ship's times are written without
+# their leading zero ("63503.91" is 06:35:03.91, as Debrief pads them) and the date is 1900.
+B_RATE_OWN = ("19001212\t63503.91\tOWNSHIP\t@A\t51\t11\t35.55\tN\t152\t42\t48.69\tW\t204.9\t4.5"
+              "\t19.41\n"
+              "19001212\t63511.91\tOWNSHIP\t@A\t51\t11\t35.01\tN\t152\t42\t49.17\tW\t208.87\t4.59"
+              "\t20.13\n"
+              "19001212\t64003.93\tOWNSHIP\t@A\t51\t11\t0.72\tN\t152\t44\t1.68\tW\t230.54\t6.42"
+              "\t57.98\n")
+B_RATE_SENSOR = (";SENSOR2: 19001212\t063838.000\tOWNSHIP\t@C\tNULL\t213.0\tNULL\tNULL\tNULL"
+                 "\tARRAY\tLabel\n"
+                 ";SENSOR2: 19001212\t063856.000\tOWNSHIP\t@C\tNULL\t216.4\tNULL\tNULL\tNULL"
+                 "\tARRAY\tLabel\n")
+
+
+def test_times_without_leading_zeros_are_read_as_debrief_reads_them(tmp_path):
+    own = write(tmp_path, "B_Rate_Ownship.rep", B_RATE_OWN)
+    ms = tk.read_measurements([own, write(tmp_path, "B_Rate_Sensor.dsf", B_RATE_SENSOR)])
+    assert ms.metadata["time_origin"] == "1900-12-12T06:35:03Z"
+    assert ms.time.tolist() == pytest.approx([215.0, 233.0])  # 06:38:38 and 06:38:56
+    padded = B_RATE_OWN.replace("\t6", "\t06")
+    same = tk.read_measurements([write(tmp_path, "p.rep", padded),
+                                 write(tmp_path, "s.dsf", B_RATE_SENSOR)])
+    assert np.array_equal(same.sensor_state, ms.sensor_state)
+
+
+# Debrief's MultiStatics/Offset_null_positions.rep (commit
+# a8eaf3c33d54a9f085f025320257ac8acacefdc3): two sensors of the own ship (TAIL_BRG, BOW_BRG)
+# with a bearing of SUBJECT at each time.
+OFFSET = ("100112 120000 SENSOR FA 60 10 48.00 N 000 12 00.00 E 200.00  12.00  0.00 \n"
+          ";SENSOR: 100112 120000 SENSOR @A NULL 166.1 0000 TAIL_BRG SUBJECT held on TAIL_BRG\n"
+          ";SENSOR: 100112 120000 SENSOR @A NULL 162.6 0000 BOW_BRG SUBJECT held on BOW_BRG\n"
+          "100112 120020 SENSOR FA 60 10 44.24 N 000 11 57.25 E 200.00  12.00  0.00 \n"
+          ";SENSOR: 100112 120020 SENSOR @A NULL 166.0 0000 TAIL_BRG SUBJECT held on TAIL_BRG\n"
+          ";SENSOR: 100112 120020 SENSOR @A NULL 162.3 0000 BOW_BRG SUBJECT held on BOW_BRG\n")
+
+
+def test_two_sensors_with_cuts_at_one_time_are_named_and_each_is_read(tmp_path):
+    rep = write(tmp_path, "Offset_null_positions.rep", OFFSET)
+    with pytest.raises(MeasurementFileError, match=r"come from 2 sensors of one own ship "
+                       r"\(TAIL_BRG.*BOW_BRG\).*line 3 and line 2.*--contact NAME"):
+        tk.read_measurements(rep)
+    bow = tk.read_measurements(rep, contact="BOW_BRG")
+    assert np.rad2deg(bow.value_si).tolist() == pytest.approx([162.6, 162.3])

@@ -9,8 +9,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from sample_logs import drone_sample, gpx_nmea_sample, replay_sample
+from typer.testing import CliRunner
 
 import tmakit as tk
+from tmakit.cli import app
 from tmakit.core.geodesy import geodetic_to_enu
 from tmakit.io import MeasurementFileError
 from tmakit.io.debrief import replay_tracks
@@ -179,6 +181,21 @@ def test_drone_log_round_trip_velocity_and_origin(tmp_path):
     assert ms.select(kind="power").value[0] == pytest.approx(float(first[7]), rel=1e-14)
     back = tk.read_measurements(tk.write_measurements(ms, tmp_path / "o.parquet"))
     assert back.equals(ms)
+
+
+@pytest.mark.parametrize("sep", [";", "\t"])
+def test_a_spreadsheets_semicolon_or_tab_log_with_decimal_commas_reads_like_the_csv(tmp_path,
+                                                                                   sep):
+    log, mapping, _ = drone_files(tmp_path)
+    rows = [r.split(",") for r in log.read_text().splitlines()]
+    text = "\n".join(sep.join([r[0], *(c.replace(".", ",") for c in r[1:])]) for r in rows)
+    other = write(tmp_path, "excel.csv", text + "\n")  # 47,95000069;-5,25000243;...
+    a = tk.read_measurements(other, format="wide", mapping=mapping)
+    b = tk.read_measurements(log, format="wide", mapping=mapping)
+    for column in ("time", "value_si", "sigma_si", "sensor_state"):
+        assert np.array_equal(getattr(a, column), getattr(b, column)), column
+    guess = CliRunner().invoke(app, ["import", "wide", str(other), "--guess"])
+    assert guess.exit_code == 0 and 'time = "utc"' in guess.output, guess.output
 
 
 def test_velocity_derived_from_positions_when_the_log_has_none(tmp_path):

@@ -365,6 +365,11 @@ def test_a_scenario_asking_for_too_many_rows_is_refused(tmp_path):
     (("crlb", "{obs}", "--motion", "cv2d", "--truth", "x=4000,x=5"), "x is given twice"),
     (("crlb", "{obs}", "--motion", "cv2d", "--truth", "x=nan,y=1"), "not a finite number"),
     (("track", "{obs}", "--prior-time", "nan"), "--prior-time nan"),
+    (("track", "{obs}", "--range-prior", "1000:inf"),
+     "--range-prior '1000:inf': expected MIN:MAX in metres (finite numbers)"),
+    (("track", "{obs}", "--height-prior", "nan:10"), "--height-prior 'nan:10'"),
+    (("estimate", "{obs}", "--motion", "cv2d", "--from", "100", "--to", "50"),
+     "--from 100 is after --to 50"),
 ])
 def test_non_finite_or_repeated_option_values_are_refused(obs, args, words):
     result = run(*(a.format(obs=obs) for a in args))
@@ -407,3 +412,15 @@ def test_a_parquet_list_column_is_a_clear_error_not_a_schema_dump(tmp_path):
     assert result.exit_code == 2, result.output
     assert "column 'value': expected numbers" in result.output
     assert "DATATYPE_COERCION" not in result.output
+
+
+def test_an_mplbackend_matplotlib_does_not_know_does_not_stop_a_picture(obs, tmp_path):
+    import subprocess
+    import sys
+
+    out = tmp_path / "p.png"
+    done = subprocess.run([sys.executable, "-m", "tmakit.cli", "show", str(obs), "--plot",
+                           str(out)], env={**os.environ, "MPLBACKEND": "nonsense"},
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert out.stat().st_size > 0

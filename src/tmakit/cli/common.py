@@ -17,19 +17,22 @@ from typing import Annotated, Any
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
-out = Console(highlight=False)
-err = Console(stderr=True, highlight=False)
+# No markup but where asked for: a file name, a sensor name or a message may hold brackets
+# ("log [final].csv", "give [position] columns") that rich would take for style tags.
+out = Console(highlight=False, markup=False)
+err = Console(stderr=True, highlight=False, markup=False)
 
 
 def print_wide(renderable: object) -> None:
     """Print a table at the terminal's width, or 160 columns when output is not a terminal."""
-    (out if out.is_terminal else Console(width=160)).print(renderable)
+    (out if out.is_terminal else Console(width=160, markup=False)).print(renderable)
 
 
 def fail(message: str) -> typer.Exit:
     """Print ``error: message`` on standard error and return the exit (status 2) to raise."""
-    err.print(f"[bold red]error:[/] {message}", markup=True, soft_wrap=True)
+    err.print(f"[bold red]error:[/] {escape(message)}", markup=True, soft_wrap=True)
     return typer.Exit(2)
 
 

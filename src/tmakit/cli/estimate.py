@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
+from rich.markup import escape
 
 from .common import (
     DriftOption,
@@ -422,6 +423,9 @@ def select_window(meas: Any, start: str | None, stop: str | None) -> Any:
     t_from, t_to = parse_time(start, meas, "--from"), parse_time(stop, meas, "--to")
     if t_from is None and t_to is None:
         return meas
+    if t_from is not None and t_to is not None and t_from > t_to:
+        raise fail(f"--from {start} is after --to {stop} ({t_from:g} s > {t_to:g} s): give the "
+                   "leg's start first")
     keep = ((meas.time >= (t_from if t_from is not None else -float("inf")))
             & (meas.time <= (t_to if t_to is not None else float("inf"))))
     if int(keep.sum()) == 0:
@@ -559,7 +563,7 @@ def print_solutions(result: Any, meas: Any, units: str) -> None:
 def print_warnings(warnings: list[Any]) -> None:
     """Print each sanity warning on standard error as ``warning: ...``."""
     for w in warnings:
-        err.print(f"[bold yellow]warning:[/] {w.message}", soft_wrap=True)
+        err.print(f"[bold yellow]warning:[/] {escape(w.message)}", markup=True, soft_wrap=True)
 
 
 def answer_or_fail(source: Any, meas: Any, sensor: str | None, **where: Any) -> Any:

@@ -19,6 +19,7 @@ from typing import Any
 
 import click
 import typer
+from rich.markup import escape
 
 from .common import err, fail, note_arguments
 
@@ -108,8 +109,8 @@ def _report(exc: BaseException, command: str, caught: list[warnings.WarningMessa
             hint = f"please report; traceback in {log}"
         except OSError:
             hint = "please report; rerun with tma --debug for the traceback"
-    err.print(f"[bold red]error:[/] internal error in `tma {command}`{what}: {message} "
-              f"({hint})", markup=True, soft_wrap=True)
+    err.print(f"[bold red]error:[/] internal error in `tma {command}`{what}: "
+              f"{escape(f'{message} ({hint})')}", markup=True, soft_wrap=True)
     return EXIT_INTERNAL
 
 

@@ -249,7 +249,8 @@ def _check_track_suffix(fmt: str, track: Path) -> None:
                    f"is GPX, any other NMEA 0183); use tma import {other}, or rename the file")
 
 
-def _mapping(mapping: Path | None, map_text: str | None, measure: list[str] | None) -> Any:
+def _mapping(mapping: Path | None, map_text: str | None, measure: list[str] | None,
+             track: Path | None = None) -> Any:
     if map_text is None and not measure:
         return mapping
     if mapping is not None:
@@ -257,7 +258,8 @@ def _mapping(mapping: Path | None, map_text: str | None, measure: list[str] | No
     from ..io.log_mapping import MappingError, mapping_from_text
 
     try:
-        return mapping_from_text(map_text or "", list(measure or []))
+        return mapping_from_text(map_text or "", list(measure or []),
+                                 None if track is None else str(track))
     except MappingError as e:
         raise fail(str(e)) from None
 
@@ -318,7 +320,8 @@ def import_(
         if not f.exists():
             raise fail(f"{f}: no such file")
     options: dict[str, Any] = reader_options(
-        "rep" if fmt == "dsf" else fmt, ownship, contact, _mapping(mapping, map_text, measure),
+        "rep" if fmt == "dsf" else fmt, ownship, contact,
+        _mapping(mapping, map_text, measure, files[0] if fmt in ("gpx", "nmea") else None),
         bearing_sigma, range_sigma, frequency_sigma, kinds=kinds, ranges=ranges) | {"dim": dim}
     if fmt in ("gpx", "nmea"):
         _check_track_suffix(fmt, files[0])

@@ -533,8 +533,11 @@ def _interval(text: str, flag: str) -> tuple[float, float]:
         if len(parts) != 2:
             raise ValueError
         lo, hi = float(parts[0]), float(parts[1])
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise ValueError
     except ValueError:
-        raise fail(f"{flag} {text!r}: expected MIN:MAX in metres, e.g. 1000:30000") from None
+        raise fail(f"{flag} {text!r}: expected MIN:MAX in metres (finite numbers), e.g. "
+                   "1000:30000") from None
     return lo, hi
 
 
@@ -784,6 +787,14 @@ class _Source:
         return True
 
 
+def own_track_only(path: Path, fmt: str | None) -> bool:
+    """Whether a file is read as a GPX or NMEA own track (no measurements of its own)."""
+    from ..io.formats import find_format
+
+    found = find_format(path, fmt, reading=True)
+    return found is not None and found.name in ("gpx", "nmea")
+
+
 class GrowingFiles:
     """Snapshots of growing text files (their complete lines), in a folder."""
 
@@ -803,6 +814,11 @@ class GrowingFiles:
                     raise fail(f"--follow {path}: follows text files (REP/DSF, NMEA, CSV), "
                                "not Parquet")
                 name = path.name
+            if own_track_only(path if str(path) != "-" else Path(name), fmt):
+                raise fail(f"--follow {path}: a GPX or NMEA own track gives the sensor's "
+                           "positions only; follow the measurement log, whose mapping names "
+                           "the track (tma track --follow LOG.csv --mapping MAP.toml, the "
+                           "mapping's track = \"own.nmea\" read anew at each look)")
             if name in names:
                 name = f"{k}-{name}"
             names.add(name)

@@ -138,10 +138,14 @@ def _clock(date: str, clock: str) -> int:
     """``YYMMDD`` (or ``YYYYMMDD``) and ``HHMMSS[.SSS]`` as UTC nanoseconds."""
     import datetime as dt
 
-    if not re.fullmatch(r"\d{6}|\d{8}", date):
+    if not re.fullmatch(r"\d{5,6}|\d{8}", date):
         raise LineError(f"expected a date YYMMDD, found {date!r}")
-    if not re.fullmatch(r"\d{6}(\.\d+)?", clock):
+    if not re.fullmatch(r"\d{1,6}(\.\d+)?", clock):
         raise LineError(f"expected a time HHMMSS or HHMMSS.SSS, found {clock!r}")
+    # leading zeros may be left out, as Debrief reads them ("63503.91" is 06:35:03.91)
+    date = date.zfill(6)
+    whole, dot, frac = clock.partition(".")
+    clock = whole.zfill(6) + dot + frac
     if len(date) == 6:
         yy = int(date[:2])
         year, rest = (2000 + yy if yy < 50 else 1900 + yy), date[2:]
@@ -594,9 +598,16 @@ def _checked(path: Path, raw: MeasurementSet, lines: list[str],
     except MeasurementFileError as e:
         twice = [p for p in e.problems if "two values at one time" in p]
         contacts = list(dict.fromkeys(s.label.split()[0] for s in rows if s.label.split()))
-        if not twice or len(contacts) < 2:
+        sensors = list(dict.fromkeys(s.sensor for s in rows))
+        if not twice or (len(contacts) < 2 and len(sensors) < 2):
             raise
         other = twice[0].partition("at the time of ")[2].partition(" (")[0]
+        if len(contacts) < 2:
+            raise MeasurementFileError(path, [  # two sensors of the own ship at one time
+                f"the cuts read come from {len(sensors)} sensors of one own ship "
+                f"({_listed(sensors)}), two of them with a cut at one time "
+                f"({twice[0].split(':')[0]} and {other}): tmakit fits one sensor's cuts of a "
+                "kind at a time; choose one with --contact NAME (a sensor name)"]) from None
         raise MeasurementFileError(path, [  # cuts of several contacts at one time
             f"the cuts read name {len(contacts)} contacts ({_listed(contacts)}), two of them "
             f"at one time ({twice[0].split(':')[0]} and {other}): one fit cannot take "

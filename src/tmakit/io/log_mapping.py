@@ -16,7 +16,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from ..core.input_files import read_toml
-from .logs import EPOCH_UNITS, KNOT, LATEST_NS, YARD
+from .logs import EPOCH_UNITS, KNOT, LATEST_NS, YARD, csv_separator
 
 __all__ = ["UNITS", "LogMapping", "MappingError", "MappingGuess", "guess_mapping", "load_mapping",
            "mapping_from_text"]
@@ -53,6 +53,11 @@ class PositionMap(_Strict):
     north: str | None = None
     up: str | None = None
     altitude: Literal["ellipsoid", "msl"] = "ellipsoid"
+    #: What latitude and longitude numbers count: degrees, or 1e-7 degrees (integers, as PX4
+    #: before v1.14 and ArduPilot's binary logs write them)
+    lat_lon_unit: Literal["deg", "1e-7 deg"] = "deg"
+    #: What altitude numbers count: metres, or millimetres (PX4 before v1.14)
+    alt_unit: Literal["m", "mm"] = "m"
 
     @model_validator(mode="after")
     def _one_way(self) -> PositionMap:
@@ -71,6 +76,16 @@ class PositionMap(_Strict):
     def geodetic(self) -> bool:
         """Whether positions are latitude/longitude."""
         return self.lat is not None
+
+    @property
+    def lat_lon_scale(self) -> float:
+        """Degrees per latitude or longitude number."""
+        return 1e-7 if self.lat_lon_unit == "1e-7 deg" else 1.0
+
+    @property
+    def alt_scale(self) -> float:
+        """Metres per altitude number."""
+        return 1e-3 if self.alt_unit == "mm" else 1.0
 
 
 class VelocityMap(_Strict):
@@ -157,23 +172,29 @@ def _explain(source: str, err: ValidationError) -> MappingError:
     return MappingError(f"{source}: the column mapping is not valid:\n" + "\n".join(lines))
 
 
-def load_mapping(path: str | os.PathLike[str]) -> LogMapping:
-    """Read a mapping TOML file (``track`` is taken relative to its folder)."""
+def load_mapping(path: str | os.PathLike[str], track: str | None = None) -> LogMapping:
+    """Read a mapping TOML file (``track`` is taken relative to its folder).
+
+    A ``track`` given here (the command line's own track file) replaces the file's, as is.
+    """
     path = Path(path)
     data = read_toml(path, "mapping", MappingError)
     try:
+        if track is not None:
+            return LogMapping.model_validate({**data, "track": str(track)})
         return LogMapping.model_validate(data).resolve_track(path.parent)
     except ValidationError as e:
         raise _explain(str(path), e) from None
 
 
-_POSITION_KEYS = ("lat", "lon", "alt", "east", "north", "up", "altitude")
+_POSITION_KEYS = ("lat", "lon", "alt", "east", "north", "up", "altitude", "lat_lon_unit",
+                  "alt_unit")
 _VELOCITY_KEYS = {"vn": "north", "ve": "east", "vd": "down", "vu": "up"}
 
 
-def mapping_from_text(text: str, measures: list[str]) -> LogMapping:
-    """Build a mapping from command-line text."""
-    data: dict[str, Any] = {}
+def mapping_from_text(text: str, measures: list[str], track: str | None = None) -> LogMapping:
+    """Build a mapping from command-line text (``track``: the command line's own track file)."""
+    data: dict[str, Any] = {} if track is None else {"track": str(track)}
     position: dict[str, str] = {}
     velocity: dict[str, str] = {}
     for part in (p for p in text.split(",") if p.strip()):
@@ -266,6 +287,8 @@ class MappingGuess:
     time_unit: str | None = None  # The unit of epoch numbers (None: ISO-8601 text)
     #: Each choice that needs the user's eye (a placeholder sigma, a time since boot)
     notes: list[str] = field(default_factory=list)
+    #: Latitudes and longitudes written as integers of 1e-7 degrees, altitudes of millimetres
+    scaled_position: bool = False
     unused: list[str] = field(default_factory=list)  # The columns no role took
 
     def toml(self, source: str) -> str:
@@ -282,11 +305,17 @@ class MappingGuess:
                          "bearings")
         if "lat" in c:
             lines += ["", "[position]", f'lat = "{c["lat"]}"', f'lon = "{c["lon"]}"']
+            if self.scaled_position:
+                lines.append('lat_lon_unit = "1e-7 deg"   # integers of 1e-7 degrees (as PX4 '
+                             "before v1.14 writes them)")
             if "alt" in c:
                 msl = "msl" in c["alt"].lower() or "sea" in c["alt"].lower()
                 lines += [f'alt = "{c["alt"]}"',
                           f'altitude = "{"msl" if msl else "ellipsoid"}"   # what the '
                           "altitudes are above: check your log"]
+                if self.scaled_position:
+                    lines.append('alt_unit = "mm"   # integers of millimetres (as PX4 before '
+                                 "v1.14 writes them): check your log")
         vertical = "down" if "down" in c else "up" if "up" in c else None
         if "north" in c and "east" in c:
             frame = "ned" if vertical != "up" else "enu"
@@ -350,7 +379,8 @@ def guess_mapping(path: str | os.PathLike[str]) -> MappingGuess:
     if path.suffix.lower() in (".parquet", ".pq"):
         frame = pd.read_parquet(path).head(5).astype(str)
     else:
-        frame = pd.read_csv(path, dtype=str, nrows=5, encoding="utf-8-sig")
+        frame = pd.read_csv(path, dtype=str, nrows=5, encoding="utf-8-sig",
+                            sep=csv_separator(path))
     names = [str(c) for c in frame.columns]
     keys = {_key(n): n for n in names}
     guess = MappingGuess()
@@ -370,6 +400,11 @@ def guess_mapping(path: str | os.PathLike[str]) -> MappingGuess:
                          "freq_hz, bearing_deg, range_m); write the mapping by hand")
     if "lat" in c and "lon" not in c:
         del c["lat"]
+    if "heading" in c and "bearing" not in c:
+        del c["heading"]  # used only by relative bearings (and PX4's "heading" is in radians)
+    if "lat" in c and len(frame):
+        lat = pd.to_numeric(frame[c["lat"]], errors="coerce").abs().max()
+        guess.scaled_position = bool(90.0 < lat <= 90e7 and "." not in frame[c["lat"]].iloc[0])
     first = str(frame[c["time"]].iloc[0]) if len(frame) else ""
     guess.time_unit, note = _time_unit(c["time"], first)
     if note:

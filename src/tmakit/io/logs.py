@@ -9,7 +9,8 @@ import datetime as dt
 import math
 import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -24,10 +25,10 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["EPOCH_UNITS", "KNOT", "LATEST_NS", "PLAUSIBLE_YEARS", "SURFACE_TOLERANCE_M",
            "VELOCITY_WINDOW_S", "YARD", "Fixes", "LocalFrame", "checked_rows",
-           "clock_time_problem", "clock_times", "course_speed_velocity", "fix_problems",
-           "interpolate_heading", "interpolate_states", "iso_utc", "local_frame",
-           "parse_clock_times", "relative_seconds", "seconds_of_time_text", "surface_dim",
-           "time_origin_ns", "velocity_from_positions"]
+           "clock_time_problem", "clock_times", "course_speed_velocity", "csv_separator",
+           "fill_altitudes", "fix_problems", "interpolate_heading", "interpolate_states",
+           "iso_utc", "local_frame", "parse_clock_times", "relative_seconds",
+           "seconds_of_time_text", "surface_dim", "time_origin_ns", "velocity_from_positions"]
 
 
 #: Sensors whose altitudes all lie within this many metres of the origin's are on a surface
@@ -55,6 +56,8 @@ class Fixes:
     lines: NDArray[np.int64] | None = None
     #: True heading (deg; NaN where unknown), for bearings relative to the heading; shape (n,)
     heading: NDArray[np.float64] | None = None
+    #: What the reader left out or read in another way than written (``note: ...``)
+    notes: list[str] = field(default_factory=list)
 
     def sorted(self) -> Fixes:
         """Return the fixes in time order (stable)."""
@@ -62,7 +65,7 @@ class Fixes:
         return Fixes(self.time_ns[order], self.lat[order], self.lon[order], self.alt[order],
                      None if self.velocity is None else self.velocity[order],
                      None if self.lines is None else self.lines[order],
-                     None if self.heading is None else self.heading[order])
+                     None if self.heading is None else self.heading[order], list(self.notes))
 
 
 @dataclass(frozen=True)
@@ -207,6 +210,33 @@ def interpolate_states(t_fix: NDArray[np.float64], states: NDArray[np.float64],
     eps = 1e-9 * max(1.0, float(np.max(np.abs(t_fix)))) if len(t_fix) else 0.0
     outside = (t < t_fix[0] - eps) | (t > t_fix[-1] + eps) if len(t_fix) else np.ones(t.shape, bool)
     return out, outside
+
+
+def csv_separator(path: Path) -> str:
+    """Give a CSV log's field separator: ``,``, or ``;`` or a tab when its header has those."""
+    with open(path, encoding="utf-8-sig", errors="replace") as f:
+        header = f.readline()
+    return max((",", ";", "\t"), key=header.count) if header.count(",") == 0 else ","
+
+
+def fill_altitudes(time_ns: NDArray[np.int64], alt: NDArray[np.float64], what: str
+                   ) -> tuple[NDArray[np.float64], list[str]]:
+    """Fill unknown (NaN) altitudes from the known ones, linearly in time; 0 when none is known.
+
+    A log whose fixes give an altitude only now and then (an NMEA RMC fix between GGA fixes, a
+    GPX point without ``<ele>``) would otherwise put those fixes at altitude 0, hundreds of
+    metres from their neighbours, and break the surface rule.
+    """
+    alt = np.array(alt, float)
+    unknown = np.isnan(alt)
+    if not unknown.any():
+        return alt, []
+    if unknown.all():
+        return np.zeros_like(alt), []
+    t = np.asarray(time_ns, np.int64)
+    alt[unknown] = np.interp(t[unknown].astype(float), t[~unknown].astype(float), alt[~unknown])
+    return alt, [f"note: the altitude of {int(unknown.sum())} of {alt.size} fixes ({what}) "
+                 "interpolated in time from the fixes that give one"]
 
 
 def interpolate_heading(t_fix: NDArray[np.float64], heading_deg: NDArray[np.float64],

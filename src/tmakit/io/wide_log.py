@@ -1,13 +1,15 @@
 """Wide logs (one row per sample, one column per quantity) as measurement sets.
 
 The sensor's positions come from the log's own columns, or from an own track joined by time: GPX
-(gpxpy) or NMEA 0183 (pynmea2; RMC, GGA, VTG, HDT).
+(gpxpy) or NMEA 0183 (pynmea2; RMC, GGA, VTG, HDT, ZDA).
 """
 
 from __future__ import annotations
 
 import datetime as dt
 import os
+import re
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -17,7 +19,7 @@ from numpy.typing import NDArray
 from .. import rules
 from ..data import MeasurementSet
 from ..measurements import KINDS
-from .errors import MeasurementFileError, refuse_unreadable
+from .errors import NOTES_SEPARATOR, READER_NOTES_KEY, MeasurementFileError, refuse_unreadable
 from .formats import Format, register_format
 from .logs import (
     KNOT,
@@ -26,6 +28,8 @@ from .logs import (
     checked_rows,
     clock_time_problem,
     course_speed_velocity,
+    csv_separator,
+    fill_altitudes,
     fix_problems,
     interpolate_heading,
     interpolate_states,
@@ -97,13 +101,21 @@ def _load(path: Path) -> _Table:
         except (OSError, ValueError) as e:
             raise MeasurementFileError(path, [f"cannot be read as Parquet ({e})"]) from None
     try:
+        sep = csv_separator(path)
         frame = pd.read_csv(path, dtype=str, keep_default_na=False, skip_blank_lines=False,
-                            encoding="utf-8-sig")
+                            encoding="utf-8-sig", sep=sep)
     except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as e:
         raise MeasurementFileError(path, [f"cannot read the CSV table ({e})"]) from None
+    if sep != ",":  # a spreadsheet's export may write decimal commas: 47,95 is 47.95
+        frame = frame.replace(_DECIMAL_COMMA, r"\1.\2", regex=True)
     lines = np.arange(len(frame), dtype=np.int64) + 2
     keep = ~(frame.astype(str).apply(lambda c: c.str.strip() == "")).all(axis=1).to_numpy()
     return _Table(path, frame[keep].reset_index(drop=True), lines[keep])
+
+
+_DECIMAL_COMMA = r"^(\s*[-+]?\d*),(\d+(?:[eE][-+]?\d+)?\s*)$"
+
+
 
 
 def _row_positions(tab: _Table, m: LogMapping) -> tuple[Fixes | None, NDArray | None]:
@@ -115,13 +127,22 @@ def _row_positions(tab: _Table, m: LogMapping) -> tuple[Fixes | None, NDArray | 
         return None, None
     if p.geodetic:
         assert p.lat is not None and p.lon is not None
-        lat = tab.numbers(p.lat, "a latitude (deg)")
-        lon = tab.numbers(p.lon, "a longitude (deg)")
-        alt = tab.numbers(p.alt, "an altitude (m)") if p.alt else np.zeros(lat.shape)
+        lat = tab.numbers(p.lat, f"a latitude ({p.lat_lon_unit})") * p.lat_lon_scale
+        lon = tab.numbers(p.lon, f"a longitude ({p.lat_lon_unit})") * p.lat_lon_scale
+        alt = (tab.numbers(p.alt, f"an altitude ({p.alt_unit})") * p.alt_scale if p.alt
+               else np.zeros(lat.shape))
         fixes = Fixes(np.zeros(lat.shape, np.int64), lat, lon, alt)
         if not tab.problems:  # the file's rules on the values read (tmakit.rules)
             columns = {"latitude": p.lat, "longitude": p.lon, "altitude": p.alt}
-            tab.problems += fix_problems(fixes, lambda k, q: tab.where(k, columns[q] or q))
+            found = fix_problems(fixes, lambda k, q: tab.where(k, columns[q] or q))
+            big = np.abs(lat[np.isfinite(lat)])
+            if found and p.lat_lon_unit == "deg" and big.size and np.all(big == np.round(big)) \
+                    and 90.0 < big.max() <= 90e7:
+                found.insert(0, f"column {p.lat!r} holds integers up to {big.max():.0f}: "
+                             "latitudes in 1e-7 degrees (as PX4 before v1.14 writes them)? "
+                             'Then give lat_lon_unit = "1e-7 deg" (and alt_unit = "mm" for '
+                             "millimetres) in [position]")
+            tab.problems += found
         return fixes, None
     assert p.east is not None and p.north is not None
     enu = np.column_stack([tab.numbers(p.east, "east (m)"), tab.numbers(p.north, "north (m)"),
@@ -171,6 +192,8 @@ def _states(tab: _Table, m: LogMapping, t_ns: NDArray[np.int64], origin: Any, di
             states = _track_states(tab, track, frame, t, t0, m.velocity_window)
             meta["velocity_source"] = ("the track's speed and course over the ground"
                                        if track.velocity is not None else _derived(m))
+            if track.notes:
+                meta[READER_NOTES_KEY] = NOTES_SEPARATOR.join(track.notes)
             return states, meta, t0
         assert fixes is not None
         pos = frame.enu(fixes.lat, fixes.lon, fixes.alt)
@@ -230,7 +253,25 @@ def _track_states(tab: _Table, track: Fixes, frame: LocalFrame, t: NDArray[np.fl
         tab.problems.append(f"{tab.where(int(k), 'time')}: time {iso_utc(t0)} + "
                             f"{t[k]:g} s is outside the own track ({span})")
     tab.fail()
+    _gap_warning(track, tf, t, t0)
     return states
+
+
+def _gap_warning(track: Fixes, tf: NDArray[np.float64], t: NDArray[np.float64], t0: int) -> None:
+    """Warn of measurements between fixes far apart (a receiver off, a track's segments)."""
+    if tf.size < 3:
+        return
+    step = np.diff(tf)
+    long = max(60.0, 10.0 * float(np.median(step)))
+    at = np.clip(np.searchsorted(tf, t, side="right") - 1, 0, tf.size - 2)
+    inside = (step[at] > long) & (t > tf[at]) & (t < tf[at + 1])
+    if inside.any():
+        worst = int(at[inside][np.argmax(step[at[inside]])])
+        track.notes.append(
+            f"warning: {int(inside.sum())} measurements fall where the own track has no fix "
+            f"for more than {long:g} s (the longest gap: {step[worst]:g} s, from "
+            f"{iso_utc(int(track.time_ns[worst]))}): their positions are interpolated in a "
+            "straight line across the gap, which the sensor may not have followed")
 
 
 def read_wide_log(path: str | os.PathLike[str], *, mapping: Any = None,
@@ -244,7 +285,7 @@ def read_wide_log(path: str | os.PathLike[str], *, mapping: Any = None,
         if mapping is None:
             raise MappingError("a wide log needs a column mapping (a TOML file: --mapping, or "
                                "--map/--measure on the command line)")
-        m = mapping if isinstance(mapping, LogMapping) else load_mapping(mapping)
+        m = mapping if isinstance(mapping, LogMapping) else load_mapping(mapping, track)
     except MappingError as e:
         raise MeasurementFileError(path, [str(e)]) from None
     if track is not None:
@@ -390,85 +431,177 @@ def read_gpx_fixes(path: str | os.PathLike[str]) -> Fixes:
         raise MeasurementFileError(path, [
             f"no GPX point with a time ({len(points)} points without <time>): a sensor track "
             "needs clock times to be joined to the measurements"])
-    fixes = Fixes(np.array([_ns(p.time) for p in timed], np.int64),
-                  np.array([p.latitude for p in timed], float),
-                  np.array([p.longitude for p in timed], float),
-                  np.array([0.0 if p.elevation is None else p.elevation for p in timed], float))
+    notes = ([f"note: {len(points) - len(timed)} of {len(points)} GPX points have no <time> "
+              "and are left out"] if len(timed) < len(points) else [])
+    time_ns = np.array([_ns(p.time) for p in timed], np.int64)
+    alt, filled = fill_altitudes(time_ns, np.array(
+        [np.nan if p.elevation is None else p.elevation for p in timed], float), "no <ele>")
+    fixes = Fixes(time_ns, np.array([p.latitude for p in timed], float),
+                  np.array([p.longitude for p in timed], float), alt, notes=notes + filled)
     return fixes.sorted()
 
 
-def _nmea_record(msg: Any, day: dt.date | None) -> tuple[str, dt.datetime | None, dict]:
-    """Return (type, time, fields) of one parsed sentence (time None when unknown)."""
+#: The NMEA sentences read, with the fewest fields of a whole one (NMEA 0183 2.x; a sentence
+#: without a checksum and fewer fields was cut short). Others (GSV, GSA, GLL, proprietary
+#: ``$P...``, AIS ``!AIVDM``, a logger's text) are skipped, as gpsd and GPSBabel skip them.
+_NMEA_READ = {"RMC": 11, "GGA": 14, "VTG": 8, "HDT": 2, "ZDA": 6}
+_HALF_DAY_S = 43_200
+
+
+@dataclass
+class _Sentence:
+    """One sentence read: its line, type, time of day and date (None when not given), fields."""
+
+    line: int
+    kind: str
+    clock: dt.time | None
+    date: dt.date | None
+    fields: dict[str, float]
+
+
+def _nmea_text(raw: str) -> tuple[str | None, bool]:
+    """Return a line's sentence if it is of a type read, and whether one was cut short on it."""
+    parts = raw.split("$")  # loggers may prefix sentences with a time stamp or a device name
+    if len(parts) < 2:
+        return None, False
+    read = [_nmea_address(p) in _NMEA_READ for p in parts[1:]]
+    return ("$" + parts[-1].strip() if read[-1] else None), any(read[:-1])
+
+
+def _nmea_address(part: str) -> str:
+    """Return the sentence type of a sentence's text after ``$`` ('' for proprietary ones)."""
+    address = part.split(",", 1)[0].split("*", 1)[0]
+    return address[2:] if len(address) == 5 and not address.startswith("P") else ""
+
+
+def _nmea_record(msg: Any, line: int) -> _Sentence | str | None:
+    """Return a sentence's time, date and fields, or why an RMC or GGA holds no fix."""
     kind = msg.sentence_type
     if kind == "RMC":
         if getattr(msg, "status", "A") == "V":
-            return "void", None, {}
-        stamp = msg.datetime if msg.datestamp and msg.timestamp else None
+            return "RMC sentences void (status V)"
+        if not msg.lat or not msg.lon or not msg.timestamp:
+            return "RMC sentences without a time or position"
+        if not isinstance(msg.datestamp, dt.date):
+            raise ValueError(f"expected the date as DDMMYY, found {msg.datestamp!r}")
         fields = {"lat": msg.latitude, "lon": msg.longitude}
         if msg.spd_over_grnd not in (None, "") and msg.true_course not in (None, ""):
             fields["sog"], fields["cog"] = float(msg.spd_over_grnd), float(msg.true_course)
-        return kind, stamp, fields
+        return _Sentence(line, kind, msg.timestamp, msg.datestamp, fields)
     if kind == "GGA":
-        if not msg.timestamp or day is None or not msg.gps_qual:
-            return "nofix" if day is not None else "nodate", None, {}
-        stamp = dt.datetime.combine(day, msg.timestamp)
-        alt = float(msg.altitude) if msg.altitude not in (None, "") else 0.0
+        if not msg.gps_qual:
+            return "GGA sentences without a fix (quality 0)"
+        if not msg.timestamp or not msg.lat or not msg.lon:
+            return "GGA sentences without a time or position"
+        alt = float(msg.altitude) if msg.altitude not in (None, "") else np.nan
         if msg.geo_sep not in (None, ""):  # above the ellipsoid = above MSL + geoid height
             alt += float(msg.geo_sep)
-        return kind, stamp, {"lat": msg.latitude, "lon": msg.longitude, "alt": alt}
+        return _Sentence(line, kind, msg.timestamp, None,
+                         {"lat": msg.latitude, "lon": msg.longitude, "alt": alt})
+    if kind == "ZDA":
+        if not msg.timestamp or not msg.day or not msg.month or not msg.year:
+            return None
+        return _Sentence(line, kind, msg.timestamp, dt.date(int(msg.year), int(msg.month),
+                                                              int(msg.day)), {})
     if kind == "VTG" and msg.true_track not in (None, "") and msg.spd_over_grnd_kts not in (
             None, ""):
-        return kind, None, {"sog": float(msg.spd_over_grnd_kts), "cog": float(msg.true_track)}
+        return _Sentence(line, kind, None, None, {"sog": float(msg.spd_over_grnd_kts),
+                                                  "cog": float(msg.true_track)})
     if kind == "HDT" and msg.heading not in (None, ""):
-        return kind, None, {"heading": float(msg.heading)}
-    return "other", None, {}
+        return _Sentence(line, kind, None, None, {"heading": float(msg.heading)})
+    return None
 
 
-def _nmea_fixes(path: Path, lines: list[str]) -> tuple[dict[int, dict], list[str]]:
-    """Parse the sentences into fields by time (ns), and the problems by line."""
+def _seconds_of_day(clock: dt.time) -> float:
+    return clock.hour * 3600 + clock.minute * 60 + clock.second + clock.microsecond / 1e6
+
+
+def _dated(sentences: list[_Sentence]) -> list[tuple[_Sentence, dt.datetime | None]]:
+    """Give each timed sentence its date: its own (RMC, ZDA), else the nearest dated one's.
+
+    A GGA sentence takes the date of the last RMC or ZDA before it (the first after it when
+    none is before), a day later when its time of day is more than 12 h before that sentence's
+    (midnight passed between them), a day earlier when more than 12 h after it.
+    """
+    out: list[tuple[_Sentence, dt.datetime | None]] = []
+    first = next((s for s in sentences if s.date is not None), None)
+    ref = first
+    for s in sentences:
+        if s.date is not None:
+            ref = s
+        if s.clock is None or ref is None:
+            out.append((s, None))
+            continue
+        assert ref.clock is not None and ref.date is not None
+        day = s.date
+        if day is None:
+            gap = _seconds_of_day(s.clock) - _seconds_of_day(ref.clock)
+            day = ref.date + dt.timedelta(days=(gap < -_HALF_DAY_S) - (gap > _HALF_DAY_S))
+        out.append((s, dt.datetime.combine(day, s.clock)))
+    return out
+
+
+def _nmea_fixes(path: Path, lines: list[str]) -> tuple[dict[int, dict], list[str], list[str]]:
+    """Parse the sentences into fields by time (ns); the problems and notes by line."""
     import pynmea2
 
-    by_time: dict[int, dict] = {}
     problems: list[str] = []
-    day: dt.date | None = None
-    last: int | None = None
-    undated = 0
+    cut: list[int] = []
+    sentences: list[_Sentence] = []
+    no_fix: dict[str, int] = {}
     for number, raw in enumerate(lines, start=1):
-        text = raw.strip()
-        start = min((i for i in (text.find("$"), text.find("!")) if i >= 0), default=-1)
-        if start < 0:
-            continue  # not a sentence (loggers may prefix sentences with a time stamp)
-        text = text[start:]
+        text, cut_short = _nmea_text(raw)
+        if cut_short:
+            cut.append(number)
+        if text is None:
+            continue
         try:
-            msg = pynmea2.parse(text, check=True)
-            kind, stamp, fields = _nmea_record(msg, day)
+            msg = pynmea2.parse(text, check=False)  # a checksum given is checked
+            if "*" not in text and len(msg.data) < _NMEA_READ[msg.sentence_type]:
+                cut.append(number)
+                continue
+            record = _nmea_record(msg, number)
         except (pynmea2.ParseError, ValueError, TypeError, AttributeError) as e:
             problems.append(f"line {number}: cannot read the NMEA sentence ({e})")
             continue
-        if kind == "RMC" and stamp is not None:
-            day = stamp.date()
-        undated += kind == "nodate"
-        if stamp is not None:
+        if isinstance(record, str):
+            no_fix[record] = no_fix.get(record, 0) + 1
+        elif record is not None:
+            sentences.append(record)
+    by_time: dict[int, dict] = {}
+    last: int | None = None
+    undated = 0
+    for s, stamp in _dated(sentences):
+        undated += s.kind == "GGA" and stamp is None
+        if s.kind in ("RMC", "GGA") and stamp is not None:
             last = _ns(stamp)
-            fix = by_time.setdefault(last, {"line": number})
-            fix.update({k: v for k, v in fields.items() if not (kind == "RMC" and k in (
-                "lat", "lon") and "alt" in fix)})
-        elif kind in ("VTG", "HDT") and last is not None:
-            by_time[last].update(fields)
-    if undated and not by_time:
-        problems.append(f"{undated} GGA sentences but no RMC sentence to give their date")
-    return by_time, problems
+            fix = by_time.setdefault(last, {"line": s.line})
+            fix.update({k: v for k, v in s.fields.items() if not (
+                s.kind == "RMC" and k in ("lat", "lon") and "alt" in fix)})
+        elif s.kind in ("VTG", "HDT") and last is not None:
+            by_time[last].update(s.fields)
+    if not by_time and not problems:
+        found = [f"{n} {why}" for why, n in no_fix.items()]
+        if undated:
+            found.append(f"{undated} GGA fixes but no valid RMC or ZDA sentence to give their "
+                         "date")
+        problems.append("no fix with a date and time" + (
+            f": {'; '.join(found)}" if found else " (no RMC or GGA sentence)"))
+    notes = [f"note: {len(cut)} NMEA sentences without a checksum and cut short (line "
+             f"{', line '.join(map(str, cut[:5]))}{' and more' if len(cut) > 5 else ''}) "
+             "are left out"] if cut else []
+    return by_time, problems, notes
 
 
 def read_nmea_fixes(path: str | os.PathLike[str]) -> Fixes:
-    """Read the fixes of an NMEA 0183 log (RMC, GGA, VTG, HDT; see the module text)."""
+    """Read the fixes of an NMEA 0183 log (RMC, GGA, VTG, HDT, ZDA; see the module text)."""
     path = Path(path)
-    lines = path.read_text(encoding="ascii", errors="replace").splitlines()
-    by_time, problems = _nmea_fixes(path, lines)
+    # lines as an editor counts them: str.splitlines would also split at the control bytes
+    # (\x1c-\x1e, \x0b, \x0c) of a receiver's binary messages between the sentences
+    lines = re.split(r"\r\n|\r|\n", path.read_text(encoding="ascii", errors="replace"))
+    by_time, problems, notes = _nmea_fixes(path, lines)
     if problems:
         raise MeasurementFileError(path, problems)
-    if not by_time:
-        raise MeasurementFileError(path, ["no RMC or GGA fix with a date and time"])
     times = np.array(sorted(by_time), np.int64)
     fixes = [by_time[t] for t in times.tolist()]
     velocity: NDArray[np.float64] | None = None
@@ -476,11 +609,22 @@ def read_nmea_fixes(path: str | os.PathLike[str]) -> Fixes:
         velocity = course_speed_velocity(np.array([f["cog"] for f in fixes]),
                                          np.array([f["sog"] for f in fixes]) * KNOT)
     heading = np.array([f.get("heading", np.nan) for f in fixes], float)
+    has_alt = any("alt" in f for f in fixes)
+    alt, filled = fill_altitudes(times, np.array(
+        [f.get("alt", np.nan if has_alt else 0.0) for f in fixes], float), "RMC without GGA")
     return Fixes(times, np.array([f["lat"] for f in fixes], float),
-                 np.array([f["lon"] for f in fixes], float),
-                 np.array([f.get("alt", 0.0) for f in fixes], float), velocity,
+                 np.array([f["lon"] for f in fixes], float), alt, velocity,
                  np.array([f["line"] for f in fixes], np.int64),
-                 heading if np.isfinite(heading).any() else None)
+                 heading if np.isfinite(heading).any() else None, notes + filled)
+
+
+def _has_sentences(path: Path) -> bool:
+    """Whether a file's first bytes hold an NMEA sentence's start (``$GPRMC``, ``$GNGGA``)."""
+    from ..core.input_files import SNIFF_BYTES
+
+    with open(path, "rb") as f:
+        head = f.read(SNIFF_BYTES)
+    return re.search(rb"\$[A-Z]{2}(RMC|GGA|VTG|HDT|ZDA),", head) is not None
 
 
 def read_track_fixes(path: str | os.PathLike[str]) -> Fixes:
@@ -488,8 +632,11 @@ def read_track_fixes(path: str | os.PathLike[str]) -> Fixes:
     path = Path(path)
     if not path.exists():
         raise MeasurementFileError(path, ["no such track file"])
-    refuse_unreadable(path)
-    if path.suffix.lower() == ".gpx":
+    gpx = path.suffix.lower() == ".gpx"
+    refuse_unreadable(path, binary=True)  # an NMEA log may hold a receiver's binary messages
+    if gpx or not _has_sentences(path):  # (u-blox UBX, SiRF) between its sentences, as gpsd
+        refuse_unreadable(path)  # reads them; a file without a sentence is refused as binary
+    if gpx:
         fixes = read_gpx_fixes(path)
         found = fix_problems(fixes, lambda k, q: f"point at {iso_utc(int(fixes.time_ns[k]))}, {q}")
     else:

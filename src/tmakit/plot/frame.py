@@ -8,6 +8,8 @@ matplotlib pictures and the Bokeh page.
 
 from __future__ import annotations
 
+import os
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -135,6 +137,8 @@ def plain_ticks(ax: Any) -> None:
 
 def pyplot() -> Any:
     """Give ``matplotlib.pyplot`` on the non-interactive Agg backend."""
+    if "matplotlib" not in sys.modules:  # Agg is chosen below: an MPLBACKEND that matplotlib
+        os.environ.pop("MPLBACKEND", None)  # does not know would fail its import
     import matplotlib
 
     matplotlib.use("Agg")
