@@ -9,6 +9,7 @@ its fast, seeded subset.
 
 from __future__ import annotations
 
+import functools
 import json
 import sys
 from dataclasses import replace
@@ -34,6 +35,17 @@ def ta_dummy():
     """Debrief's TA_DUMMY bearings and the curvilinear:2 estimate of issue 26."""
     meas = tk.read_measurements(TA_DUMMY, kinds=["bearing"])
     return meas, tk.estimate(meas, "curvilinear:2")
+
+
+@functools.cache
+def ta_dummy_run(r: int):
+    """TA_DUMMY geometry, seeded run ``r``: the scenario, the measurements and the estimate.
+
+    Cached: two tests fit run 1, and a worker of pytest-xdist that runs both fits it once.
+    """
+    scn, how = solutions_coverage.ta_dummy()
+    meas = scn.simulate(rng=np.random.default_rng([0, r]))
+    return scn, meas, tk.estimate(meas, **how)
 
 
 def test_ta_dummy_reports_every_solution_and_warns(ta_dummy):
@@ -129,10 +141,8 @@ def test_ta_dummy_final_position_is_covered_or_said_undetermined():
     """
     from tmakit.results.solutions import range_spread
 
-    scn, how = solutions_coverage.ta_dummy()
     for r in range(4):
-        meas = scn.simulate(rng=np.random.default_rng([0, r]))
-        res = tk.estimate(meas, **how)
+        scn, meas, res = ta_dummy_run(r)
         truth = scn.target_states(np.array([meas.time.max()]))[0, :2]
         assert res.region_contains(truth, meas)
         if not any(s.answer(meas).position_determined and s.region_contains(truth, meas)
@@ -201,9 +211,7 @@ def test_the_picture_of_an_undetermined_range_shades_the_bearing_interval():
     from tmakit.plot.frame import MapFrame
     from tmakit.plot.solution import _draw_map
 
-    scn, how = solutions_coverage.ta_dummy()
-    meas = scn.simulate(rng=np.random.default_rng([0, 1]))
-    res = tk.estimate(meas, **how)
+    scn, meas, res = ta_dummy_run(1)
     fig, ax = plt.subplots()
     _draw_map(ax, res, meas, 3, 0.95)
     fans = [p for p in ax.patches if "range undetermined" in str(p.get_label())]

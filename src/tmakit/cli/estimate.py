@@ -490,7 +490,7 @@ def answer_title(a: Any, what: str) -> str:
 
 def frame_note(meas: Any) -> str | None:
     """Say where lat/lon and clock times come from: the ENU origin and the time origin."""
-    from ..results.answers import altitude_reference
+    from ..results.context import altitude_reference
 
     meta = {} if meas is None else meas.metadata
     parts = []
