@@ -7,7 +7,6 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.markup import escape
 
 from .common import (
     ForceOption,
@@ -365,20 +364,20 @@ def plan(
                        f"{tracker or setup.tracker} tracker "
                        f"{'given by --tracker' if tracker else 'of ' + str(scenario)}")
         for warning in start_warnings(setup):
-            err.print(f"warning: {escape(warning)}")
+            err.print(f"warning: {warning}")
         from ..montecarlo.planned import plan as run_plan
 
         result = run_plan(setup, runs=runs, rng=seed, duration=duration,
                           particles=particles, tracker=tracker, planner=planner,
                           progress=not no_progress)
     except ScenarioFileError as e:
-        raise fail(escape(str(e))) from None
+        raise fail(str(e)) from None
     except ValueError as e:
         message = str(e)
         for name in ("duration", "runs", "particles", "planner"):
             if message.startswith(f"{name} "):
                 message = f"--{message}"
-        raise fail(escape(f"{scenario}: {message}")) from None
+        raise fail(f"{scenario}: {message}") from None
     if as_json:
         import json
 
@@ -386,7 +385,7 @@ def plan(
     else:
         print_plan_summary(result, seed)
     for warning in result.warnings():
-        err.print(f"warning: {escape(warning)}")
+        err.print(f"warning: {warning}")
     write_outputs(result, output, plot, force, err if as_json else out)
 
 
