@@ -26,8 +26,6 @@ from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.linalg import null_space
-from scipy.optimize import least_squares
 
 from ..batch import estimate
 from ..batch.ml import plausible_chi2
@@ -634,6 +632,10 @@ def _profile_search(residuals: Callable[[Array], Array], jacobians: Callable[[Ar
     jumps across the limit between two valleys), the bracket's outer end: beyond the limit, so
     widening to it is conservative.
     """
+    # (imported here: scipy.optimize takes 0.1-0.2 s to import, and few starts come here)
+    from scipy.linalg import null_space
+    from scipy.optimize import least_squares
+
     basis = null_space(direction[None])
 
     def fit(t: float, start: Array) -> tuple[Array, float]:
