@@ -626,7 +626,7 @@ def _profile_search(residuals: Callable[[Array], Array], jacobians: Callable[[Ar
     The profile at ``t = direction @ z`` is the fit with that coordinate held (Levenberg-
     Marquardt over the rest, from the fit at the bracket's inner end); its end is where it
     reaches ``limit``, bracketed by points inside and beyond the limit (from the Gauss-Newton
-    point, going up ``_PROFILE_GROWTH`` times at a time, or down to ``z = 0``) and found by
+    point up past the secant's crossing, or down to ``z = 0``) and found by
     regula falsi (the Illinois variant) to within ``_PROFILE_ACCURACY`` of a quantile in
     chi-square.  Gives the end and whether it converged; if not (a fit failed, or the profile
     jumps across the limit between two valleys), the bracket's outer end: beyond the limit, so
@@ -641,7 +641,7 @@ def _profile_search(residuals: Callable[[Array], Array], jacobians: Callable[[Ar
     def fit(t: float, start: Array) -> tuple[Array, float]:
         sol = least_squares(lambda w: residuals(t * direction + basis @ w), basis.T @ start,
                             jac=lambda w: jacobians(t * direction + basis @ w) @ basis,
-                            method="lm")
+                            method="lm", xtol=1e-6, ftol=1e-6)
         end = t * direction + basis @ sol.x
         r = residuals(end)
         value = float(r @ r) - limit
@@ -657,10 +657,12 @@ def _profile_search(residuals: Callable[[Array], Array], jacobians: Callable[[Ar
         t = max(up, math.sqrt(quantile) / _PROFILE_GROWTH)
         point, value = fit(t, z)
         while value < 0:
-            inner = (t, point, value)
+            (t0, _, e0), inner = inner, (t, point, value)
             if t >= cap or value > -tolerance:
                 return point, True  # (at the limit, or inside it up to the cap)
-            t = min(t * _PROFILE_GROWTH, cap)
+            # up to a little beyond the secant's crossing, 5 % to _PROFILE_GROWTH times as far
+            guess = t - 1.2 * value * (t - t0) / (value - e0) if value > e0 else math.inf
+            t = min(max(guess, 1.05 * t), _PROFILE_GROWTH * t, cap)
             point, value = fit(t, point)
         high = (t, point, value)
         outer = (t, point)
