@@ -48,6 +48,11 @@ m = tk.load_scenario("gu2007").simulate(rng=3); tk.track(m, "ukf")
 t = time.process_time()
 for _ in range(3): tk.track(m, "ukf")
 """,
+    "track ukf gu2007 seed 4 (a start's profile ends left short by Gauss-Newton)": """
+m = tk.load_scenario("gu2007").simulate(rng=4); tk.track(m, "ukf")
+t = time.process_time()
+for _ in range(3): tk.track(m, "ukf")
+""",
     "track pf 2000 bearings-only-2d": """
 m = tk.load_scenario("bearings-only-2d").simulate(rng=3)
 t = time.process_time()

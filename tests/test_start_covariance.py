@@ -118,3 +118,46 @@ def test_the_track_says_whether_and_where_its_start_was_widened(tmp_path) -> Non
     assert out.exit_code == 0, out.output
     assert "widened to the window's profile likelihood" in " ".join(out.output.split())
     assert f"position axis x{widened[0]['factor']:.3g}" in " ".join(out.output.split())
+
+
+@pytest.mark.parametrize(("name", "seed", "tracker"), [
+    ("gu2007", 4, "ukf"),  # Gauss-Newton stopped half a quantile short at its step cap
+    ("gu2007", 2, "ukf"),
+    ("hoerst2010", 2, "ekf"),
+    ("bearings-only-2d", 0, "ekf"),
+    pytest.param("chen-sun-1", 3, "ekf", marks=pytest.mark.xfail(
+        strict=True, reason="two valleys in the profile: the held fit jumps to a second minimum "
+                            "the local end-point search does not follow")),
+])
+def test_each_profile_end_is_the_brute_force_profiles_or_flagged(name: str, seed: int,
+                                                                 tracker: str) -> None:
+    from profile_ends import recording, reference_ends  # benchmarks/
+
+    from tmakit.tracking.initiators import MAX_PROFILE_WIDTH
+
+    with recording() as calls:
+        tk.track(load_scenario(name).simulate(rng=seed), tracker)
+    assert calls
+    for call in calls:
+        dirs, quantile = call["args"][2], call["args"][-1]
+
+        def excess(z: np.ndarray, args: tuple = call["args"]) -> float:
+            # the chi-square over the limit, in quantiles
+            point, _, _, obs, noise, nu, quantile = args
+            r = noise.whiten(obs.residuals(point(z), nu))
+            r0 = noise.whiten(obs.residuals(point(0 * z), nu))
+            return float(r @ r - r0 @ r0) / quantile - 1
+
+        cap = 0.999 * MAX_PROFILE_WIDTH * np.sqrt(quantile)
+        ours, ref = call["ends"], reference_ends(*call["args"])
+        for z, r, v, sure in zip(ours, ref, dirs, call["converged"], strict=True):
+            distance = [max(np.sqrt(x @ x / quantile), LIKELIHOOD_TOLERANCE) for x in (z, r)]
+            # (an end inside the tolerance widens nothing: its distance no matter)
+            if not sure:  # a flagged end is taken beyond the limit: it widens no less
+                assert excess(z) > 0 and distance[0] >= 0.98 * distance[1]
+            elif v @ r >= cap and excess(r) < 0:  # the region reaches the cap: so must ours
+                assert v @ z >= cap and excess(z) < 0
+            elif abs(excess(r)) <= 0.01:
+                assert distance[0] == pytest.approx(distance[1], rel=0.02)
+            else:  # the reference's re-fit jumped valleys: ours must be an end by itself
+                assert abs(excess(z)) <= 0.01 or (v @ z >= cap and excess(z) < 0)

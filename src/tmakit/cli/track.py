@@ -417,7 +417,10 @@ def start_sentence(tr: Any) -> str:
     if s.get("widened"):
         text += ("; its covariance widened to the window's profile likelihood (the linearised "
                  "one is overconfident) along " + ", ".join(
-                     f"the {w['axis']} axis x{w['factor']:.3g}" for w in s["widened"]))
+                     f"the {w['axis']} axis x{w['factor']:.3g}"
+                     + ("" if w.get("converged", True) else
+                        " (its end not found to tolerance: widened beyond the limit instead)")
+                     for w in s["widened"]))
     check = s.get("confirmation")
     if check and check["dof"]:
         text += (f"; confirmed by the next {check['updates']} updates (NIS {check['nis']:.1f} "

@@ -227,11 +227,15 @@ class Widening:
     factor : float
         How far outside the 95 % ellipsoid the end lay (its Mahalanobis distance over the
         ellipsoid's): the covariance's standard deviation along the end grew by this factor.
+    converged : bool
+        Whether the end point was found to its tolerance; if not, the widening is to a point
+        beyond the likelihood region's limit (conservative).
     """
 
     axis: str
     direction: dict[str, float]
     factor: float
+    converged: bool = True
 
     def as_dict(self) -> dict[str, Any]:
         """Return the JSON form.
@@ -239,9 +243,10 @@ class Widening:
         Returns
         -------
         dict
-            ``axis``, ``direction`` (unit vector by state name), ``factor``.
+            ``axis``, ``direction`` (unit vector by state name), ``factor``, ``converged``.
         """
-        return {"axis": self.axis, "direction": dict(self.direction), "factor": self.factor}
+        return {"axis": self.axis, "direction": dict(self.direction), "factor": self.factor,
+                "converged": self.converged}
 
 
 @dataclass(frozen=True)
@@ -534,24 +539,24 @@ def likelihood_covariance(result: EstimateResult, rows: MeasurementSet, time: fl
     obs = ObservationModel(rows, result.motion, options)
     nu = (obs.nuisance_vector({n: v for n, (v, _) in result.nuisance.items()})
           if obs.n_nuisance else None)
-    ends = _profile_ends(lambda z: theta + z @ scale.T, scale, np.array(ups), obs,
-                         NoiseModel(rows), nu, quantile)
+    ends, converged = _profile_ends(lambda z: theta + z @ scale.T, scale, np.array(ups), obs,
+                                    NoiseModel(rows), nu, quantile)
     wide_z, wide, widened = np.eye(len(theta)), cov, []
-    for (axis, direction), z in zip(sides, ends, strict=True):
+    for (axis, direction), z, sure in zip(sides, ends, converged, strict=True):
         m = float(z @ np.linalg.solve(wide_z, z)) if np.all(np.isfinite(z)) else np.nan
         if np.isfinite(m) and m > quantile * LIKELIHOOD_TOLERANCE ** 2:
             wider_z = wide_z + (m / quantile - 1.0) / m * np.outer(z, z)
             wider = scale @ wider_z @ scale.T
             if np.all(np.linalg.eigvalsh(wider) > 0):  # (not lost to rounding)
                 wide_z, wide = wider_z, (wider + wider.T) / 2
-                widened.append(Widening(axis, direction, math.sqrt(m / quantile)))
+                widened.append(Widening(axis, direction, math.sqrt(m / quantile), bool(sure)))
     return wide, tuple(widened)
 
 
 def _profile_ends(point: Callable[[Array], Array], scale: Array, dirs: Array,
                   obs: ObservationModel, noise: NoiseModel, nu: Array | None, quantile: float
-                  ) -> Array:
-    """Give the end points ``(k, p)`` of the profiles up the unit ``dirs[i] @ z``.
+                  ) -> tuple[Array, NDArray[np.bool_]]:
+    """Give the end points ``(k, p)`` of the profiles up the unit ``dirs[i] @ z``, converged.
 
     ``point(z)`` is theta; in ``z`` the fit's covariance is the identity.  The ends are iterated
     from ``z = 0`` together (one evaluation of the residuals and one of the Jacobians per step,
@@ -561,7 +566,9 @@ def _profile_ends(point: Callable[[Array], Array], scale: Array, dirs: Array,
     ends up, within a trust radius (Nocedal & Wright 2006, ch. 4): a step is refused when it
     lands beyond the limit by more than ``_PROFILE_SLACK`` quantiles (from beyond it, when it
     does not lower the chi-square), and the radius halves; it grows after a step whose
-    chi-square the model foresaw.
+    chi-square the model foresaw.  An end still short after ``_PROFILE_ITERATIONS`` steps (or
+    ``_PROFILE_HALVINGS`` refusals), as in a curved valley, is finished by
+    :func:`_profile_search`.
     """
     k, p = dirs.shape
 
@@ -580,11 +587,14 @@ def _profile_ends(point: Callable[[Array], Array], scale: Array, dirs: Array,
     radius = np.full(k, _PROFILE_GROWTH * math.sqrt(quantile))
     finished = np.zeros(k, dtype=bool)
     halved = np.zeros(k, dtype=int)
+    converged = np.zeros(k, dtype=bool)
     for _ in range(_PROFILE_ITERATIONS):
         steps, done, model = _end_steps(res, jac, dirs, z, cost, limit, quantile, radius)
         done &= ~finished
         z[done] += steps[done]
-        finished |= done | ((np.einsum("kp,kp->k", z, dirs) >= cap) & (cost < limit))
+        done |= ~finished & (np.einsum("kp,kp->k", z, dirs) >= cap) & (cost < limit)
+        finished |= done
+        converged |= done
         if finished.all():
             break
         steps[finished] = 0.0
@@ -602,7 +612,85 @@ def _profile_ends(point: Callable[[Array], Array], scale: Array, dirs: Array,
             z[ok] += steps[ok]
             res[ok], cost[ok] = trial[ok], new[ok]
             jac[ok] = jacobians(z[ok])
-    return z
+    for i in np.flatnonzero(~converged):
+        z[i], converged[i] = _profile_search(residuals, jacobians, dirs[i], z[i], limit, quantile,
+                                             cap)
+    return z, converged
+
+
+def _profile_search(residuals: Callable[[Array], Array], jacobians: Callable[[Array], Array],
+                    direction: Array, z: Array, limit: float, quantile: float, cap: float
+                    ) -> tuple[Array, bool]:
+    """Finish an end that Gauss-Newton left short: a bracketed root of the profile's chi-square.
+
+    The profile at ``t = direction @ z`` is the fit with that coordinate held (Levenberg-
+    Marquardt over the rest, from the fit at the bracket's inner end); its end is where it
+    reaches ``limit``, bracketed by points inside and beyond the limit (from the Gauss-Newton
+    point up past the secant's crossing, or down to ``z = 0``) and found by
+    regula falsi (the Illinois variant) to within ``_PROFILE_ACCURACY`` of a quantile in
+    chi-square.  Gives the end and whether it converged; if not (a fit failed, or the profile
+    jumps across the limit between two valleys), the bracket's outer end: beyond the limit, so
+    widening to it is conservative.
+    """
+    # (imported here: scipy.optimize takes 0.1-0.2 s to import, and few starts come here)
+    from scipy.linalg import null_space
+    from scipy.optimize import least_squares
+
+    basis = null_space(direction[None])
+
+    def fit(t: float, start: Array) -> tuple[Array, float]:
+        sol = least_squares(lambda w: residuals(t * direction + basis @ w), basis.T @ start,
+                            jac=lambda w: jacobians(t * direction + basis @ w) @ basis,
+                            method="lm", xtol=1e-6, ftol=1e-6)
+        end = t * direction + basis @ sol.x
+        r = residuals(end)
+        value = float(r @ r) - limit
+        if sol.status <= 0 or not math.isfinite(value):
+            raise FloatingPointError
+        return end, value
+
+    tolerance = _PROFILE_ACCURACY * quantile
+    up = float(direction @ z)
+    outer = (up, z)
+    try:
+        inner = (0.0, np.zeros_like(z), -quantile)
+        t = max(up, math.sqrt(quantile) / _PROFILE_GROWTH)
+        point, value = fit(t, z)
+        while value < 0:
+            (t0, _, e0), inner = inner, (t, point, value)
+            if t >= cap or value > -tolerance:
+                return point, True  # (at the limit, or inside it up to the cap)
+            # up to a little beyond the secant's crossing, 5 % to _PROFILE_GROWTH times as far
+            guess = t - 1.2 * value * (t - t0) / (value - e0) if value > e0 else math.inf
+            t = min(max(guess, 1.05 * t), _PROFILE_GROWTH * t, cap)
+            point, value = fit(t, point)
+        high = (t, point, value)
+        outer = (t, point)
+        if value <= tolerance:
+            return point, True
+        low, side = inner, 0
+        for _ in range(_PROFILE_ITERATIONS):
+            (t0, _, e0), (t1, _, e1) = low, high
+            if t1 - t0 <= 1e-9 * t1:
+                break  # (a jump across the limit: no end at the limit here)
+            t = (t0 * e1 - t1 * e0) / (e1 - e0)
+            point, value = fit(t, low[1])
+            if abs(value) <= tolerance:
+                return point, True
+            if value < 0:
+                low = (t, point, value)
+                if side < 0:
+                    high = (high[0], high[1], high[2] / 2)
+                side = -1
+            else:
+                high = (t, point, value)
+                outer = (t, point)
+                if side > 0:
+                    low = (low[0], low[1], low[2] / 2)
+                side = 1
+    except (FloatingPointError, np.linalg.LinAlgError):
+        pass
+    return outer[1], False
 
 
 def _end_steps(res: Array, jac: Array, dirs: Array, z: Array, cost: Array, limit: float,
