@@ -86,7 +86,7 @@ def crlb_rows(sizes, repeat, clock="cpu"):
                      fmt(stats["estimate"], 1e3, unit),
                      f"NumPy Fisher {fmt(stats['fisher'], 1e3, unit)}",
                      stats["estimate"][0] / stats["fisher"][0],
-                     "tmakit/peer (goal <= 3)"))
+                     "tmakit/peer (goal <= 3 at N = 10^5; fixed costs rule below)"))
     big = [i for i, n in enumerate(sizes) if n >= 1000]
     if len(big) >= 2:
         x = np.log([sizes[i] for i in big])
