@@ -49,8 +49,9 @@ def test_the_public_modules_have_every_flag_of_strict():
             assert PUBLIC.get(flag, CONFIG.get(flag)) == value, flag
         else:
             assert CONFIG.get(flag) == value, flag
-    # the libraries' modules too, as --strict has it (off for tmakit's non-public modules)
+    # every module's, tmakit's included, as --strict has it
     assert CONFIG["implicit_reexport"] is False
+    assert all(o.get("implicit_reexport", False) is False for o in CONFIG["overrides"])
 
 
 @pytest.mark.long

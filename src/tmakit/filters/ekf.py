@@ -7,11 +7,12 @@ from collections.abc import Callable, Mapping
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.arrays import Array
 from ..core.linalg import solve_spd
 from ..data import MeasurementSet
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
-from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
+from .base import KindOptions, ProcessNoise, TrackingFilter
 from .general import (
     DynamicsCache,
     PreparedMeasurements,
@@ -26,7 +27,7 @@ from .general import (
     sym,
     updated_covariance,
 )
-from .track import Recorder
+from .track import Recorder, UpdateInfo
 
 LOG_2PI = float(np.log(2.0 * np.pi))
 #: The iterated EKF stops when an iteration moves the position by less than this fraction of

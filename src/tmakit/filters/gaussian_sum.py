@@ -16,15 +16,15 @@ from types import ModuleType
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..core.arrays import IntArray
+from ..core.arrays import Array, IntArray
 from ..core.linalg import solve_spd
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
-from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
+from .base import KindOptions, ProcessNoise, TrackingFilter
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import ExtendedKalmanFilter
 from .general import PreparedMeasurements
-from .track import Recorder, Track
+from .track import Recorder, Track, UpdateInfo
 from .ukf import CubatureKalmanFilter, UnscentedKalmanFilter
 
 

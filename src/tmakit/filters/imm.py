@@ -17,10 +17,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.arrays import Array
 from ..core.linalg import symmetrise
 from ..motion.dynamics import CoordinatedTurn, NearlyConstantVelocity, UnknownRateTurn
 from ..observation.groups import MeasurementGroup
-from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
+from .base import KindOptions, ProcessNoise, TrackingFilter
 from .ekf import ExtendedKalmanFilter
 from .gaussian_sum import (
     check_component,
@@ -29,7 +30,7 @@ from .gaussian_sum import (
     update_components,
 )
 from .particle import ParticleFilter, ParticleStep
-from .track import Recorder, Track
+from .track import Recorder, Track, UpdateInfo
 
 #: Turn rates of the default coordinated-turn models (deg/s), each taken to the left and to the
 #: right: a bank in steps of 2 from a large ship's slow turn (0.375 deg/s) to an aircraft's

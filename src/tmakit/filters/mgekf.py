@@ -16,11 +16,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.arrays import Array
 from ..data import MeasurementSet
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation import MeasurementGroup
-from .base import Array, KindOptions, ProcessNoise, UpdateInfo
+from .base import KindOptions, ProcessNoise
 from .ekf import ExtendedKalmanFilter, gaussian_update, linearise_group
+from .track import UpdateInfo
 
 #: A bearing row with ``|1 - mu|`` below this uses its EKF row instead.
 MU_FLOOR = 1e-3

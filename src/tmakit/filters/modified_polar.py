@@ -31,12 +31,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.arrays import Array
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
-from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
+from .base import KindOptions, ProcessNoise, TrackingFilter
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import gaussian_update
 from .general import DynamicsCache, finite
+from .track import UpdateInfo
 
 #: The 2-D state's places in the 3-D one, and the Cartesian 2-D state's in ``[x, y, z, vx, vy,
 #: vz]``.

@@ -17,13 +17,14 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.arrays import Array
 from ..core.linalg import nearest_psd, safe_cholesky, solve_spd, symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
-from .base import Array, KindOptions, ProcessNoise, TrackingFilter, UpdateInfo
+from .base import KindOptions, ProcessNoise, TrackingFilter
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import LOG_2PI
-from .track import Recorder, Track
+from .track import Recorder, Track, UpdateInfo
 
 #: Log-weights this far below the largest are zero weights (:meth:`ParticleFilter._normalise`).
 LOG_NEGLIGIBLE = -575.0

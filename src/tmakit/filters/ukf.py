@@ -15,11 +15,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg.lapack import dpotrf
 
+from ..core.arrays import Array
 from ..core.linalg import safe_cholesky
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
 from ..observation.rows import Index
-from .base import Array, KindOptions, ProcessNoise
+from .base import KindOptions, ProcessNoise
 from .ekf import LOG_2PI, ExtendedKalmanFilter, Updated
 from .general import (
     Step,

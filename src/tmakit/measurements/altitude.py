@@ -15,9 +15,10 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.arrays import Array
 from ..core.geodesy import enu_to_geodetic
 from ..core.units import REACH_M
-from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
+from .base import Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 __all__ = ["Altitude"]
 

@@ -8,7 +8,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .base import Array, Jacobian, MeasurementModel, as_rel, zeros_nuisance
+from ..core.arrays import Array
+from .base import Jacobian, MeasurementModel, as_rel, zeros_nuisance
 
 
 class AzimuthRate(MeasurementModel):

@@ -10,7 +10,8 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
+from ..core.arrays import Array
+from .base import Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 
 class Bearing(MeasurementModel):

@@ -12,8 +12,9 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.arrays import Array
 from ..core.units import SPEED_OF_LIGHT
-from .base import Array, Jacobian, as_rel
+from .base import Jacobian, as_rel
 from .range_rate import range_rate_and_gradient
 from .tdoa import BetweenSensors
 

@@ -13,9 +13,10 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.arrays import Array
 from ..core.keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from ..core.units import SPEED_OF_LIGHT
-from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, dot3
+from .base import Jacobian, MeasurementModel, ValueRange, as_rel, dot3
 from .range_rate import range_rate_and_gradient, range_rate_row
 
 

@@ -10,8 +10,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.arrays import Array
 from ..core.units import DBM_MINUS_DBW
-from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, dot3
+from .base import Jacobian, MeasurementModel, ValueRange, as_rel, dot3
 
 _TEN_OVER_LN10 = 10.0 / np.log(10.0)
 

@@ -7,8 +7,9 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.arrays import Array
 from ..core.units import REACH_M
-from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
+from .base import Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 
 class Range(MeasurementModel):

@@ -9,8 +9,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.arrays import Array
 from ..core.units import REACH_M
-from .base import Array, Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
+from .base import Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 
 class RangeDifference(MeasurementModel):

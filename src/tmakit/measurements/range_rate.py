@@ -11,9 +11,9 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.arrays import Array
 from ..core.units import SPEED_OF_LIGHT
 from .base import (
-    Array,
     Jacobian,
     MeasurementModel,
     ValueRange,

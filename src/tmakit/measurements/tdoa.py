@@ -12,8 +12,9 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.arrays import Array
 from ..core.units import REACH_M, SPEED_OF_LIGHT
-from .base import Array, Jacobian, MeasurementModel, ValueRange
+from .base import Jacobian, MeasurementModel, ValueRange
 from .range_difference import path_difference, path_difference_jacobian
 
 __all__ = ["NOISE_FORMS", "BetweenSensors", "Tdoa", "noise_form", "shared_reference_covariance"]
