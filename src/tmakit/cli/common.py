@@ -472,10 +472,6 @@ def check_outputs(outputs: Iterable[tuple[str, Path | None, str]], force: bool,
     return resolved
 
 
-def _lock_path(path: Path) -> Path:
-    return path.with_name(f".{path.name}.tma-lock")
-
-
 def _alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
@@ -492,7 +488,7 @@ def claim_outputs(paths: Iterable[Path | None]) -> Iterator[None]:
     held: list[Path] = []
     try:
         for path in (p for p in paths if p is not None):
-            lock = _lock_path(path)
+            lock = path.with_name(f".{path.name}.tma-lock")
             for _ in range(2):
                 try:
                     fd = os.open(lock, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)

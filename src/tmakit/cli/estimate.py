@@ -187,23 +187,17 @@ def read_leg_window(files: list[Path], origin: Any, options: dict[str, Any],
 
 def fit_leg_by_leg(meas: Any, fit: Any, turns: tuple[bool, float | None, float | None],
                    as_json: bool, legs: Any) -> tuple[Any, Any]:
-    """Fit (the ambiguity resolved where the bearings have twins); keep the legs in the result."""
-    result, fitted = fit_with_ambiguity(meas, fit, turns, as_json, legs)
-    keep_legs(meas, fitted, result, turns[2], legs)
-    return result, fitted
-
-
-def keep_legs(navigation: Any, meas: Any, result: Any, turn_rate: float | None,
-              legs: Any = None) -> None:
-    """Keep the own ship's legs and a manoeuvre fit's contact legs in the result (``extra``)."""
+    """Fit (ambiguity resolved where bearings have twins); keep own-ship and contact legs."""
     from ..results.own_legs import contact_legs
 
-    legs = legs_of(navigation, turn_rate) if legs is None else legs
+    result, fitted = fit_with_ambiguity(meas, fit, turns, as_json, legs)
+    legs = legs_of(meas, turns[2]) if legs is None else legs
     if legs is not None:
-        result.extra["legs"] = {"sensor": navigation.sensors[0], **legs.as_dict()}
-    target = contact_legs(result, meas)
+        result.extra["legs"] = {"sensor": meas.sensors[0], **legs.as_dict()}
+    target = contact_legs(result, fitted)
     if target is not None:
         result.extra["contact_legs"] = target
+    return result, fitted
 
 
 def grouped_by_kind(meas: Any) -> Any:
@@ -632,39 +626,26 @@ def _span(meas: Any, part: dict[str, Any]) -> str:
     return " to ".join(f"{t:g} s" if c is None else c[11:19] for t, c in clocks)
 
 
-def legs_lines(meas: Any, legs: dict[str, Any], units: str) -> list[str]:
-    """Return the own-ship legs and turns in words, with the thresholds."""
+def print_legs(meas: Any, result: Any, units: str) -> None:
+    """Print the own-ship legs and turns and a manoeuvre fit's contact legs (``extra``)."""
     unit, scale = SPEED_UNITS[units]
-    lines = [f"own-ship legs of {legs['sensor']} ({legs['thresholds']}):"]
-    for k, leg in enumerate(legs["legs"]):
+    legs, target = result.extra.get("legs"), result.extra.get("contact_legs")
+    lines = [f"own-ship legs of {legs['sensor']} ({legs['thresholds']}):"] if legs else []
+    for k, leg in enumerate(legs["legs"] if legs else []):
         lines.append(f"  leg {k + 1}: {_span(meas, leg)}, heading "
                      f"{leg['course_deg']:.1f} deg at {leg['speed'] / scale:.3g} {unit}")
         if k < len(legs["turns"]):
             u = legs["turns"][k]
             lines.append(f"  turn: {_span(meas, u)}, {u['change_deg']:+.0f} deg")
-    return lines
-
-
-def print_legs(meas: Any, result: Any, units: str) -> None:
-    """Print the own-ship legs and the contact's legs a fit carries (``extra``)."""
-    legs, target = result.extra.get("legs"), result.extra.get("contact_legs")
-    lines = (legs_lines(meas, legs, units) if legs else []) + (
-        contact_legs_lines(meas, target, units) if target else [])
-    for line in lines:
-        out.print(line, soft_wrap=True)
-
-
-def contact_legs_lines(meas: Any, legs: list[dict[str, Any]], units: str) -> list[str]:
-    """Return the contact's legs of a manoeuvre fit in words."""
-    unit, scale = SPEED_UNITS[units]
-    lines = ["contact legs (the manoeuvre fit's segments):"]
-    for k, leg in enumerate(legs):
+    lines += ["contact legs (the manoeuvre fit's segments):"] if target else []
+    for k, leg in enumerate(target or []):
         course = (f"course {leg['course_deg']:.1f} deg" if leg["turn_deg"] is None
                   or abs(leg["turn_deg"]) < 1.0 else
                   f"turning {leg['course_start_deg']:.1f} to {leg['course_deg']:.1f} deg")
         lines.append(f"  leg {k + 1}: {_span(meas, leg)}, {course}, speed "
                      f"{leg['speed'] / scale:.3g} {unit}")
-    return lines
+    for line in lines:
+        out.print(line, soft_wrap=True)
 
 
 def fit_with_ambiguity(meas: Any, fit: Any,

@@ -75,10 +75,6 @@ def install_sigterm() -> None:
     signal.signal(signal.SIGTERM, _raise)
 
 
-def _log_dir() -> Path:
-    return Path(os.environ.get("TMA_LOG_DIR") or tempfile.gettempdir())
-
-
 def _where(exc: BaseException) -> str:
     """Name the innermost tmakit function on the traceback: what was being computed."""
     where = ""
@@ -104,7 +100,8 @@ def _report(exc: BaseException, command: str, caught: list[warnings.WarningMessa
         hint = "please report, with the traceback above"
     else:
         try:
-            log = _log_dir() / f"tma-error-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}.log"
+            log = (Path(os.environ.get("TMA_LOG_DIR") or tempfile.gettempdir())
+                   / f"tma-error-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}.log")
             log.write_text(f"tma {command}\n{text}")
             hint = f"please report; traceback in {log}"
         except OSError:

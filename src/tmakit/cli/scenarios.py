@@ -57,13 +57,8 @@ def summary_table(meas: Any, title: str) -> Table:
                       *([f"{clock_time(meas, float(r['t_first']))}"[:19] + " .. "
                          + f"{clock_time(meas, float(r['t_last']))}"[11:19]] if clock else []),
                       f"{r['value_min']:.10g}", f"{r['value_max']:.10g}", unit,
-                      f"{r['sigma_median']:.4g}", sigma_unit(unit))
+                      f"{r['sigma_median']:.4g}", "dB" if unit.startswith("dB") else unit)
     return table
-
-
-def sigma_unit(unit: str) -> str:
-    """Return the unit of a standard deviation of values in ``unit``."""
-    return "dB" if unit.startswith("dB") else unit
 
 
 def truth_text(meta: dict[str, str]) -> str:

@@ -180,17 +180,14 @@ def track(
                           (particles, seed, component, smooth or lag is not None or sums,
                            (model_q, transition, turn_rate, turn_rate_noise)),
                           filter_name, options))
-    name, say = Path(" + ".join(map(str, files))), err if as_json else out
+    update = Watch(tracked, Path(" + ".join(map(str, files))), output, plot, page, ellipses,
+                   force, as_json, sensor, units, options)
     if follow:
-        return watch(list(files), logs["format"], Watch(tracked, name, output, plot, page, ellipses,
-                                                force, as_json, sensor, units, options),
-                     interval, max_updates, say)
+        return watch(list(files), logs["format"], update, interval, max_updates, update.say)
     meas, tr, truth = tracked(list(files))
     report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units,
                  sums)
-    write_track_outputs(name, meas, tr, truth, output, plot, ellipses, force, say)
-    if page is not None:
-        write_track_page(meas, tr, page, force, options, name, say)
+    update.write(meas, tr, truth, force)
 
 
 def start_keywords(prior: tuple[str | None, str | None, str | None, float | None],
@@ -255,9 +252,14 @@ class Watch:
         self.tracked, self.name = tracked, name
         self.output, self.plot, self.page, self.ellipses = output, plot, page, ellipses
         self.force, self.as_json, self.sensor, self.units = force, as_json, sensor, units
-        self.options = options
-        self.count = 0
-        self.say = err if as_json else out
+        self.options, self.count, self.say = options, 0, err if as_json else out
+
+    def write(self, meas: Any, tr: Any, truth: Any, force: bool) -> None:
+        """Write the track table, picture and page asked for, and say so."""
+        write_track_outputs(self.name, meas, tr, truth, self.output, self.plot, self.ellipses,
+                            force, self.say)
+        if self.page is not None:
+            write_track_page(meas, tr, self.page, force, self.options, self.name, self.say)
 
     def __call__(self, paths: list[Path]) -> bool:
         """Make one update; False (and why, on standard error) when the data give none yet."""
@@ -281,11 +283,7 @@ class Watch:
         else:
             out.print(update_line(self.count, len(meas), answer, trust.level, self.units),
                       soft_wrap=True)
-        write_track_outputs(self.name, meas, tr, truth, self.output, self.plot,
-                            self.ellipses, self.force or self.count > 1, self.say)
-        if self.page is not None:
-            write_track_page(meas, tr, self.page, self.force or self.count > 1, self.options,
-                             self.name, self.say)
+        self.write(meas, tr, truth, self.force or self.count > 1)
         return True
 
 
@@ -308,10 +306,7 @@ def update_line(count: int, rows: int, a: Any, trust: str, units: str) -> str:
 
 def run_track(meas: Any, filter_name: str, keywords: dict[str, Any], smooth: bool,
               lag: int | None, sums: bool = False) -> Any:
-    """Track (:func:`tmakit.track` with ``keywords``), and smooth with ``--smooth``/``--lag``.
-
-    With ``--sums`` the Gaussian sums stay in ``tr.extra.history`` for the JSON.
-    """
+    """Track (:func:`tmakit.track`) and smooth (``--smooth``/``--lag``; ``--sums`` kept)."""
     from .. import tracking
 
     try:
@@ -347,8 +342,6 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
 
 def track_trust(tr: Any, warnings: list[Any]) -> Any:
     """Return how far to trust a track: ``warning`` on inconsistent NIS or a held nuisance."""
-    import numpy as np
-
     from .. import tracking
     from ..results import TRUST_OK, TRUST_WARNING, SanityWarning, Trust
 
@@ -356,11 +349,9 @@ def track_trust(tr: Any, warnings: list[Any]) -> Any:
     start = tracking.start_record(tr)
     if isinstance(start, tracking.BatchStart) and start.held_nuisance_note():
         reasons.insert(0, SanityWarning("held-nuisance", start.held_nuisance_note()))
-    used = tr.dof > 0
-    if np.any(used):
-        verdict = nis_verdict(float(np.sum(tr.nis[used])), int(np.sum(tr.dof[used])))
-        if verdict:
-            reasons.insert(0, SanityWarning("inconsistent-innovations", verdict))
+    verdict = nis_verdict(tr)
+    if verdict:
+        reasons.insert(0, SanityWarning("inconsistent-innovations", verdict))
     return Trust(TRUST_WARNING if reasons else TRUST_OK, reasons)
 
 
@@ -443,11 +434,9 @@ def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None, units: str =
 
     dim = len(tr.state_names) // 2
     k_sel = np.unique(np.linspace(0, len(tr) - 1, min(n_rows, len(tr))).round().astype(int))
-    q = ", ".join(f"{v:g}" for v in tr.extra.q)
+    q = ", ".join(f"{v:g}" for v in tr.extra.q) + " m/s^2"
     if any(tr.extra.q_density or ()):
-        q += " m/s^2, q~ = " + ", ".join(f"{v:g}" for v in tr.extra.q_density) + " m^2/s^3"
-    else:
-        q += " m/s^2"
+        q += ", q~ = " + ", ".join(f"{v:g}" for v in tr.extra.q_density) + " m^2/s^3"
     table = Table(title=f"{tr.filter_name} track: {len(tr)} rows, t = {tr.times[0]:g} .. "
                         f"{tr.times[-1]:g} s, q = {q} ({len(k_sel)} rows shown)",
                   title_justify="left")
@@ -478,10 +467,14 @@ def print_track(tr: Any, truth: Any, n_rows: int, meas: Any = None, units: str =
     print_track_checks(tr, truth, dim)
 
 
-def nis_verdict(nis: float, dof: int, level: float = 1e-3) -> str:
+def nis_verdict(tr: Any, level: float = 1e-3) -> str:
     """Say when the innovations contradict the filter's covariances (chi-square test)."""
     from ..core import chi2
 
+    used = tr.dof > 0
+    if not used.any():
+        return ""
+    nis, dof = float(tr.nis[used].sum()), int(tr.dof[used].sum())
     upper, lower = float(chi2.sf(nis, dof)), float(chi2.cdf(nis, dof))
     if upper < level:
         return (f"the innovations are larger than the track's covariances allow (NIS {nis:.1f} "
@@ -504,8 +497,7 @@ def print_track_checks(tr: Any, truth: Any, dim: int) -> None:
         out.print(f"{int(np.sum(used))} updates, mean NIS per degree of freedom "
                   f"{mean_nis:.3f} (1 when consistent), log-likelihood "
                   f"{tr.log_likelihood[-1]:.2f}")
-        verdict = nis_verdict(float(np.sum(tr.nis[used])), int(np.sum(tr.dof[used])))
-        if verdict:
+        if verdict := nis_verdict(tr):
             err.print(f"warning: {verdict}")
     if truth is not None:
         e = tr.states[-1, :dim] - truth[-1, :dim]
@@ -519,28 +511,29 @@ def print_track_checks(tr: Any, truth: Any, dim: int) -> None:
                   f"{np.linalg.norm(e):.1f} m, {sigma}")
 
 
+def numbers(text: str, message: str, convert: Callable[[str], float] = float) -> list[float]:
+    """Read numbers separated by commas; ``error: message`` when one is not a number."""
+    try:
+        return [convert(v) for v in text.split(",")]
+    except ValueError:
+        raise fail(message) from None
+
+
 def parse_q(text: str, dim: int, flag: str = "--q") -> list[float]:
     """Parse ``--q``: one number or per-axis numbers ``qx,qy[,qz]`` (m/s^2)."""
-    try:
-        return [float(p.strip()) for p in text.split(",")]
-    except ValueError:
-        unit = "m/s^2" if flag == "--q" else "m^2/s^3"
-        raise fail(f"{flag} {text!r}: expected one number or {dim} numbers separated by "
-                   f"commas ({unit} per axis, e.g. 0.01 or "
-                   f"{','.join(['0.01'] * dim)})") from None
+    unit = "m/s^2" if flag == "--q" else "m^2/s^3"
+    return numbers(text, f"{flag} {text!r}: expected one number or {dim} numbers separated by "
+                         f"commas ({unit} per axis, e.g. 0.01 or {','.join(['0.01'] * dim)})")
 
 
 def _interval(text: str, flag: str) -> tuple[float, float]:
-    parts = text.split(":")
     try:
-        if len(parts) != 2:
-            raise ValueError
-        lo, hi = float(parts[0]), float(parts[1])
-        if not (math.isfinite(lo) and math.isfinite(hi)):
-            raise ValueError
+        lo, hi = (float(v) for v in text.split(":"))
     except ValueError:
+        lo = hi = math.nan
+    if not (math.isfinite(lo) and math.isfinite(hi)):
         raise fail(f"{flag} {text!r}: expected MIN:MAX in metres (finite numbers), e.g. "
-                   "1000:30000") from None
+                   "1000:30000")
     return lo, hi
 
 
@@ -591,27 +584,18 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
     if smooth and filter_name in ("gsf", "imm", "mmpf"):
         out["history"] = True  # the sums, the models or the clouds, for the smoother
     if model_q is not None:
-        try:
-            out["model_q"] = [float(v) for v in model_q.split(",")]
-        except ValueError:
-            raise fail(f"--model-q {model_q!r}: expected accelerations (m/s^2) separated by "
-                       "commas") from None
+        out["model_q"] = numbers(model_q, f"--model-q {model_q!r}: expected accelerations "
+                                          "(m/s^2) separated by commas")
     if turn_rate is not None:
-        try:
-            out["turn_rates"] = [] if turn_rate.strip().lower() == "none" else [
-                math.radians(float(v)) for v in turn_rate.split(",")]
-        except ValueError:
-            raise fail(f"--turn-rate {turn_rate!r}: expected turn rates (deg/s) separated by "
-                       "commas, or none") from None
+        out["turn_rates"] = [] if turn_rate.strip().lower() == "none" else numbers(
+            turn_rate, f"--turn-rate {turn_rate!r}: expected turn rates (deg/s) separated by "
+                       "commas, or none", lambda v: math.radians(float(v)))
     if turn_rate_noise is not None:
         out["rate_noise"] = rate_noise_setting(turn_rate_noise)
     if transition is not None:
-        try:
-            out["transition"] = [[float(v) for v in row.split(",")]
-                                 for row in transition.split(";")]
-        except ValueError:
-            raise fail(f"--transition {transition!r}: expected rows of probabilities, "
-                       "e.g. 0.95,0.05;0.05,0.95") from None
+        out["transition"] = [numbers(row, f"--transition {transition!r}: expected rows of "
+                                          "probabilities, e.g. 0.95,0.05;0.05,0.95")
+                             for row in transition.split(";")]
     return out
 
 
@@ -656,11 +640,10 @@ def check_sums(sums: bool, filter_name: str, as_json: bool, follow: bool) -> Non
                    "--follow, whose lines carry the latest answer only)")
 
 
-#: The flags of `tma track` for the library parameters its errors name.
 #: Fewest particles ``tma track`` takes: one more than a 3-D state's six values, the fewest
 #: whose cloud can have a non-singular covariance.
 MIN_PARTICLES = 7
-
+#: The flags of `tma track` for the library parameters its errors name.
 TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--prior-std",
                "max_relative_std": "--start-std", "tracker": "--filter",
                "q_density": "--q-density", "bearing_prior": "--range-prior"}
@@ -839,8 +822,7 @@ class GrowingFiles:
 
     def poll(self) -> bool:
         """Take in what arrived; whether any snapshot gained complete lines."""
-        grew = [s.poll() for s in self.sources]
-        return any(grew)
+        return any([s.poll() for s in self.sources])  # (every source polled)
 
 
 def watch(paths: list[Path], fmt: str | None, update: Callable[[list[Path]], bool],
