@@ -155,9 +155,13 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
     found += _where(bad, "time_ref", FINITE, time_ref[bad])
     if order:
         found += _order_problems(time, sensor_code)
-        found += _far_time_problems(time)
-        found += _duplicate_problems(time, sensor_code if stream_code is None else stream_code,
-                                     kind, time_ref)
+        far, expected = far_times(time)
+        found += _where(np.flatnonzero(far), "time", expected, time[far])
+        pairs = duplicate_rows(time, sensor_code if stream_code is None else stream_code, kind,
+                               time_ref)
+        found += [f"row {row + 1}, column 'time': expected one row per (sensor, kind, time, "
+                  f"time_ref), found {float(time[row])!r}, a duplicate of row {first + 1}"
+                  for row, first in pairs[:_SHOWN]]
     return found
 
 
@@ -188,12 +192,6 @@ def sigma_resolved(value: NDArray[np.float64], sigma: NDArray[np.float64]
                    ) -> NDArray[np.bool_]:
     """Tell where a sigma is at least :data:`SIGMA_FLOOR` of its value's size."""
     return sigma >= SIGMA_FLOOR * np.maximum(np.abs(value), 1.0)
-
-
-def _far_time_problems(time: NDArray[np.float64]) -> list[str]:
-    far, expected = far_times(time)
-    bad = np.flatnonzero(far)
-    return _where(bad, "time", expected, time[bad])
 
 
 def duplicate_rows(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
@@ -228,15 +226,6 @@ def duplicate_rows(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
         first = int(r[i - 1]) if i == 1 or not twin[i - 2] else first
         pairs.append((int(r[i]), first))
     return sorted(pairs)
-
-
-def _duplicate_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
-                        kind_code: NDArray[np.integer], time_ref: NDArray[np.float64]
-                        ) -> list[str]:
-    pairs = duplicate_rows(time, sensor_code, kind_code, time_ref)
-    return [f"row {row + 1}, column 'time': expected one row per (sensor, kind, time, "
-            f"time_ref), found {float(time[row])!r}, a duplicate of row {first + 1}"
-            for row, first in pairs[:_SHOWN]]
 
 
 def _order_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer]
