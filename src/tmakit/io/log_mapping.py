@@ -173,10 +173,7 @@ def _explain(source: str, err: ValidationError) -> MappingError:
 
 
 def load_mapping(path: str | os.PathLike[str], track: str | None = None) -> LogMapping:
-    """Read a mapping TOML file (``track`` is taken relative to its folder).
-
-    A ``track`` given here (the command line's own track file) replaces the file's, as is.
-    """
+    """Read a mapping TOML file (its ``track`` relative to its folder; ``track`` given: as is)."""
     path = Path(path)
     data = read_toml(path, "mapping", MappingError)
     try:

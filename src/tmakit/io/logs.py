@@ -221,12 +221,7 @@ def csv_separator(path: Path) -> str:
 
 def fill_altitudes(time_ns: NDArray[np.int64], alt: NDArray[np.float64], what: str
                    ) -> tuple[NDArray[np.float64], list[str]]:
-    """Fill unknown (NaN) altitudes from the known ones, linearly in time; 0 when none is known.
-
-    A log whose fixes give an altitude only now and then (an NMEA RMC fix between GGA fixes, a
-    GPX point without ``<ele>``) would otherwise put those fixes at altitude 0, hundreds of
-    metres from their neighbours, and break the surface rule.
-    """
+    """Fill unknown altitudes linearly in time (0 only when none is known: the surface rule)."""
     alt = np.array(alt, float)
     unknown = np.isnan(alt)
     if not unknown.any():

@@ -252,10 +252,6 @@ def _arrow_column(values: Any, kind: pa.DataType) -> pa.Array:
     return pa.array(np.asarray(values), type=kind)
 
 
-def _slug(text: str) -> str:
-    return "".join(c if c.isalnum() or c in "-_" else "_" for c in text)
-
-
 class LoopCheckpoint:
     """Save each finished chunk of a closed-loop study to ``<path>.parts``; the table at the end."""
 
@@ -274,7 +270,8 @@ class LoopCheckpoint:
     def __call__(self, chunk: LoopChunk) -> None:
         """Save one finished chunk (atomically) in the parts folder."""
         self.parts.mkdir(parents=True, exist_ok=True)
-        name = f"{_slug(chunk.case)}-{chunk.first_run:06d}.parquet"
+        slug = "".join(c if c.isalnum() or c in "-_" else "_" for c in chunk.case)
+        name = f"{slug}-{chunk.first_run:06d}.parquet"
         self.saved.append(write_table(self.parts / name, chunk.table(), force=True,
                                       what="a chunk of the per-step table"))
 

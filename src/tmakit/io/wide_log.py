@@ -517,12 +517,7 @@ def _seconds_of_day(clock: dt.time) -> float:
 
 
 def _dated(sentences: list[_Sentence]) -> list[tuple[_Sentence, dt.datetime | None]]:
-    """Give each timed sentence its date: its own (RMC, ZDA), else the nearest dated one's.
-
-    A GGA sentence takes the date of the last RMC or ZDA before it (the first after it when
-    none is before), a day later when its time of day is more than 12 h before that sentence's
-    (midnight passed between them), a day earlier when more than 12 h after it.
-    """
+    """Date each sentence: its own, else the last dated one's, +-1 day across midnight (12 h)."""
     out: list[tuple[_Sentence, dt.datetime | None]] = []
     first = next((s for s in sentences if s.date is not None), None)
     ref = first
