@@ -302,11 +302,6 @@ def in_bearing_interval(position: ArrayLike, answer: Answer,
                 <= span[1])
 
 
-def _is_stationary(jac: NDArray[np.float64], state: NDArray[np.float64]) -> bool:
-    """Whether no parameter moves the emitter (velocity zero with zero derivatives)."""
-    return bool(not np.any(jac[3:6]) and not np.any(state[3:6]))
-
-
 def estimate_answer(result: object, meas: MeasurementSet | None = None,
                     time: float | None = None, sensor: str | None = None,
                     level: float = ELLIPSE_LEVEL) -> Answer:
@@ -321,8 +316,9 @@ def estimate_answer(result: object, meas: MeasurementSet | None = None,
     if problem is not None:
         raise ValueError(problem)
     state, cov, jac, null = fit_state(result, float(time))
+    stationary = not np.any(jac[3:6]) and not np.any(state[3:6])  # nothing moves it
     return answer_from_state(state, cov, float(time), meas, sensor, motion.dim,
-                             _is_stationary(jac, state), level, null)
+                             bool(stationary), level, null)
 
 
 def covering_scale(state: NDArray[np.float64], cov: NDArray[np.float64],

@@ -320,21 +320,16 @@ class _Builder:
             source=source)
 
 
-def _format_pydantic(err: ValidationError) -> list[str]:
-    lines = []
-    for e in err.errors():
-        loc = ""
-        for part in e["loc"]:
-            loc += f"[{part}]" if isinstance(part, int) else (f".{part}" if loc else str(part))
-        lines.append(f"{loc or '(top level)'}: {e['msg']}")
-    return lines
-
-
 def _validate(data: dict[str, Any], source: str) -> ScenarioSpec:
     try:
         return ScenarioSpec.model_validate(data)
     except ValidationError as err:
-        problems = _format_pydantic(err)
+        problems = []
+        for e in err.errors():
+            loc = ""
+            for part in e["loc"]:
+                loc += f"[{part}]" if isinstance(part, int) else (f".{part}" if loc else str(part))
+            problems.append(f"{loc or '(top level)'}: {e['msg']}")
         raise ScenarioFileError(f"{source}: " + "; ".join(problems) if len(problems) == 1
                                 else f"{source}:\n  " + "\n  ".join(problems)) from None
 
