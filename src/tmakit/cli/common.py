@@ -183,13 +183,6 @@ def model_options(drift: bool, free_exponent: bool, propagation_speed: float | N
             "power": {"exponent": None if free_exponent else 2.0}}
 
 
-def is_measurement_file(text: str) -> bool:
-    """Whether a command argument names a measurement file (``.csv``, ``.parquet``, ``.pq``)."""
-    from ..io import find_format  # the registry, so that a new format is recognised here too
-
-    return find_format(text, reading=True) is not None
-
-
 # Options shared by the commands that fit or bound a motion model.
 MotionOption = Annotated[str | None, typer.Option(
     help="cv2d, cv3d, static2d, static3d, curvilinear[:M]")]

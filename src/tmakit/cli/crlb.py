@@ -21,7 +21,6 @@ from .common import (
     fail,
     failing,
     file_ref_time,
-    is_measurement_file,
     load_scenario_or_fail,
     model_options,
     motion_or_fail,
@@ -68,8 +67,10 @@ def crlb(
         raise fail(f"--sensor-position-sigma {sensor_position_sigma}: expected a distance >= 0 (m)")
     if at is not None and not math.isfinite(at):
         raise fail(f"--at {at}: expected a finite time (s)")
+    from ..io import find_format  # the registry: a new format is a measurement file here too
+
     source = sources[0]
-    if len(sources) > 1 or is_measurement_file(source) or logs["format"] is not None:
+    if len(sources) > 1 or find_format(source, reading=True) or logs["format"] is not None:
         bound, warnings, meas, opts = bound_of_file(
             [Path(s) for s in sources], motion, ref_time, truth, known_nuisance,
             model_options(drift, free_exponent, propagation_speed),

@@ -164,8 +164,13 @@ def estimate(
     result, meas = fit_leg_by_leg(meas, fit, (keep_turn_cuts, settle, turn_rate), as_json,
                                   record_legs)
     factors = None
-    if scale_sigma:
-        meas, result, factors = refit_scaled(meas, result, fit, model)
+    if scale_sigma:  # each kind's sigma rescaled from the residuals, and a second fit
+        from ..results import normalised_residuals
+        from ..results import scale_sigma as rescaled
+
+        with failing("--scale-sigma: "):
+            meas, factors = rescaled(meas, normalised_residuals(result, meas, model), result.dof)
+        result = fit(meas)
     answer = answer_or_fail(result, meas, sensor, time=parse_time(at, meas, "--at"))
     warnings = result.warnings(meas)
     print_estimate(meas, result, as_json, answer=answer, units=units, warnings=warnings,
@@ -234,8 +239,16 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
                        "estimated by ml only")
         if ref_time is None and motion is None and (ref_time := file_ref_time(meas)) is not None:
             check_ref_time(ref_time, meas.time, "the file's ref_time")
-        return lambda m: estimate_manoeuvring(m, name, start, options, ref_time, exact,
-                                              criterion, alpha, accelerations)
+        def fit_manoeuvring(m: Any) -> Any:
+            from ..batch.curvilinear import estimate_for
+
+            with failing():
+                return estimate_for(m, name, init=start, options=options, ref_time=ref_time,
+                                    exact=exact, criterion=criterion or "bic",
+                                    alpha=0.01 if alpha is None else alpha,
+                                    accelerations=accelerations)
+
+        return fit_manoeuvring
     if exact or criterion is not None or alpha is not None or accelerations is not None:
         raise fail("--exact, --criterion, --alpha and --accelerations apply to --motion "
                    "curvilinear[:M] only")
@@ -294,30 +307,6 @@ def with_height(meas: Any, result: Any, options: dict[str, Any], dim: int | None
     choice = choose_height(meas, result, options, force=dim == 3)
     choice.result.extra["height"] = choice.as_dict()
     return choice.result
-
-
-def refit_scaled(meas: Any, result: Any, fit: Any, options: dict[str, Any]
-                 ) -> tuple[Any, Any, dict[str, float]]:
-    """``--scale-sigma``: rescale each kind's sigma from the residuals and fit again."""
-    from ..results import normalised_residuals, scale_sigma
-
-    with failing("--scale-sigma: "):
-        scaled, factors = scale_sigma(meas, normalised_residuals(result, meas, options), result.dof)
-    return scaled, fit(scaled), factors
-
-
-def estimate_manoeuvring(meas: Any, name: str, start: dict[str, float] | None,
-                         options: dict[str, Any], ref_time: float | None, exact: bool,
-                         criterion: str | None, alpha: float | None,
-                         accelerations: str | None) -> Any:
-    """Compute the ML estimate of a manoeuvring target (``--motion curvilinear[:M]``)."""
-    from ..batch.curvilinear import estimate_for
-
-    with failing():
-        return estimate_for(meas, name, init=start, options=options, ref_time=ref_time,
-                            exact=exact, criterion=criterion or "bic",
-                            alpha=0.01 if alpha is None else alpha,
-                            accelerations=accelerations)
 
 
 def print_estimate(meas: Any, result: Any, as_json: bool, answer: Any = None,
@@ -652,40 +641,42 @@ def fit_with_ambiguity(meas: Any, fit: Any,
                        turns: tuple[bool, float | None, float | None], as_json: bool,
                        legs: Any = None) -> tuple[Any, Any]:
     """Fit, resolving a towed array's ambiguity when the bearings carry twins."""
-    import numpy as np
+    from ..batch.ambiguity import SETTLE_S
+    from ..results.own_legs import TURN_RATE_DEG_S
 
     keep_turn_cuts, settle, turn_rate = turns
-    if meas.ambiguous_si is None or not np.any(~np.isnan(meas.ambiguous_si)):
+    amb = resolved_sides(meas, err if as_json else out, fit=fit, keep_turn_cuts=keep_turn_cuts,
+                         settle_s=SETTLE_S if settle is None else settle,
+                         turn_rate_deg_s=TURN_RATE_DEG_S if turn_rate is None else turn_rate,
+                         legs=legs)
+    if amb is None:
         if keep_turn_cuts or settle is not None:
             err.print("note: --keep-turn-cuts/--settle apply to towed-array cuts with a second, "
                       "ambiguous bearing; these data have none")
         return fit(meas), meas
-    from ..batch.ambiguity import SETTLE_S, resolve_ambiguity
-    from ..results.own_legs import TURN_RATE_DEG_S
+    return amb.result, amb.measurements
+
+
+def resolved_sides(meas: Any, say: Any, *args: Any, **options: Any) -> Any:
+    """Resolve a towed array's ambiguity, the decisions said; None when no bearing has a twin."""
+    import numpy as np
+
+    if meas.ambiguous_si is None or not np.any(~np.isnan(meas.ambiguous_si)):
+        return None
+    from ..batch.ambiguity import resolve_ambiguity
 
     with failing():
-        amb = resolve_ambiguity(meas, fit=fit, keep_turn_cuts=keep_turn_cuts,
-                                settle_s=SETTLE_S if settle is None else settle,
-                                turn_rate_deg_s=TURN_RATE_DEG_S if turn_rate is None
-                                else turn_rate, legs=legs)
-    say = err if as_json else out
+        amb = resolve_ambiguity(meas, *args, **options)
     for line in amb.lines(meas):
         say.print(line, soft_wrap=True)
-    return amb.result, amb.measurements
+    return amb
 
 
 def sides_for_filter(meas: Any, dim: int) -> Any:
     """``tma track``: each ambiguous cut on the side the batch fit chooses, decisions printed."""
-    import numpy as np
-
-    if meas.ambiguous_si is None or not np.any(~np.isnan(meas.ambiguous_si)):
+    amb = resolved_sides(meas, err, f"cv{dim}d")
+    if amb is None:
         return meas
-    from ..batch.ambiguity import resolve_ambiguity
-
-    with failing():
-        amb = resolve_ambiguity(meas, f"cv{dim}d")
-    for line in amb.lines(meas):
-        err.print(line, soft_wrap=True)
     if not amb.resolved:
         err.print("note: a filter follows one bearing per cut: the track takes the best fit's "
                   "side of each unresolved leg, and the mirror track fits about as well (tma "

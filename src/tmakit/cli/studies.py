@@ -200,18 +200,14 @@ def reproduce(
     module = importlib.import_module(REPRODUCTIONS[name])
     extra = _extra_options(name, module, particles=particles, steps=steps, radar=radar,
                            tracker=tracker, dask=dask, chunk=chunk, output=output)
-    if plot is not None:
-        if not hasattr(module, "plot"):
-            drawn = [n for n, m in REPRODUCTIONS.items()
-                     if hasattr(importlib.import_module(m), "plot")]
-            raise fail(f"--plot: reproduction {name!r} draws no figure (figures: "
-                       f"{', '.join(drawn)})")
+    if plot is not None and not hasattr(module, "plot"):
+        drawn = [n for n, m in REPRODUCTIONS.items() if hasattr(importlib.import_module(m), "plot")]
+        raise fail(f"--plot: reproduction {name!r} draws no figure (figures: {', '.join(drawn)})")
     check_particles(particles)
     plot, output = check_outputs([("--plot", plot, "picture"), ("--output", output, "table")],
                                  force)
-    checkpoint = None
-    if output is not None:
-        checkpoint = _checkpoint(output, force)
+    checkpoint = None if output is None else _checkpoint(output, force)
+    if checkpoint is not None:
         extra["on_chunk"] = checkpoint
     try:
         rep = module.run(**({} if runs is None else {"runs": runs}), seed=seed,
@@ -461,15 +457,9 @@ def print_plan_summary(result: Any, seed: int) -> None:
             ("largest violation (m)", "max_violation_m", "{:.4g}"),
             ("mean decision time (ms)", "mean_decision_ms", "{:.3g}")]
     for label, key, form in rows:
-        cells = []
-        for c in cases:
-            v = summaries[c][key]
-            cell = form.format(v)
-            if key == "rmse_over_pcrb":
-                cell += interval(summaries[c]["rmse_over_pcrb_low"],
-                                 summaries[c]["rmse_over_pcrb_high"])
-            cells.append(cell)
-        table.add_row(label, *cells)
+        ends = {c: interval(summaries[c][f"{key}_low"], summaries[c][f"{key}_high"])
+                if key == "rmse_over_pcrb" else "" for c in cases}
+        table.add_row(label, *(form.format(summaries[c][key]) + ends[c] for c in cases))
     out.print(table)
     p = s.planner
     constraints = ", ".join(c.name + (" (hard)" if c.hard else " (penalty)")
