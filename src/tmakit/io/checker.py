@@ -551,9 +551,7 @@ def check_table(path: str | os.PathLike[str], raw: RawTable,
     found = problems.sorted()
     if found:
         raise MeasurementFileError(Path(path), found)
-    meta: dict[str, Any] = dict(raw.metadata)
-    meta.update(origin_metadata)
-    meta.update(meta_carrier)
+    meta: dict[str, Any] = {**raw.metadata, **origin_metadata, **meta_carrier}
     out = MeasurementSet(num["time"], np.asarray(sensor.tolist(), dtype=str),
                          np.asarray(kind.tolist(), dtype=str), num["value"],
                          num["sigma"], state, time_ref, ref_state, meta, check=tonal is None)

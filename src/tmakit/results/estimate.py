@@ -401,17 +401,14 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.
                                    KnownNuisance(nu_values) if known else None, nu_values,
                                    decomposition)
     p = motion.n_params
-    std = bound.std[:p]
-    cov = bound.covariance[:p, :p]
-    nuis = {}
-    for i, name in enumerate(names_nu):
-        s = np.nan if known else bound.std[p + i]
-        nuis[name] = (float(nu[i]), float(s) if not known else 0.0)
+    nuis = {name: (float(nu[i]), 0.0 if known else float(bound.std[p + i]))
+            for i, name in enumerate(names_nu)}
     dof = noise.rank - len(names)
     status, message = fit_status(converged, bound, len(names))
     if note:
         message = f"{message}; {note}" if message else note
-    return EstimateResult(motion.param_names, theta.copy(), std, cov, nuis, status,
+    return EstimateResult(motion.param_names, theta.copy(), bound.std[:p],
+                          bound.covariance[:p, :p], nuis, status,
                           int(iterations), float(2.0 * cost), dof, method, motion, bound,
                           starts, message)
 
