@@ -755,7 +755,7 @@ def _basic_checks(cells: _Cells, num: Numbers, kind: NDArray[np.object_]) -> Non
             cells.check(c, partial(_reach, column=j), POSITION if j < 3 else VELOCITY)
     if "value" in num:
         for k, ok, what in value_ranges():
-            cells.check("value", lambda v, r, k=k, ok=ok: ok(v) | (kind[r] != k), what)
+            cells.check("value", _for_kind(kind, k, ok), what)
     if "sigma" in num:
         cells.check("sigma", lambda v, r: v > 0, SIGMA_POSITIVE)
     if "sigma" in num and "value" in num:
@@ -774,6 +774,12 @@ def _basic_checks(cells: _Cells, num: Numbers, kind: NDArray[np.object_]) -> Non
 def _reach(values: NDArray[np.float64], rows: object, column: int) -> NDArray[np.bool_]:
     """Tell where a sensor state column lies within reach (a column check's signature)."""
     return state_within_reach(values, column)
+
+
+def _for_kind(kind: NDArray[np.object_], k: str,
+              ok: Callable[[NDArray[np.float64]], NDArray[np.bool_]]) -> RowCheck:
+    """Make a value check that holds on the rows of kind ``k`` only."""
+    return lambda v, r: ok(v) | (kind[r] != k)
 
 
 def _time_ref_checks(cells: _Cells, num: Numbers, kind: NDArray[np.object_],
