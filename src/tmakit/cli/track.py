@@ -581,7 +581,7 @@ def component_settings(filter_name: str, component: str, smooth: bool = False,
         if filter_name != "mmpf":
             return {"history": True} if smooth and filter_name == "pf" else {}
     out: dict[str, object] = {} if filter_name == "mmpf" else {"component": component}
-    if smooth and filter_name in ("gsf", "imm", "mmpf"):
+    if smooth:  # (gsf, imm or mmpf here)
         out["history"] = True  # the sums, the models or the clouds, for the smoother
     if model_q is not None:
         out["model_q"] = numbers(model_q, f"--model-q {model_q!r}: expected accelerations "

@@ -300,9 +300,7 @@ class Scenario:
             sigma_si = plan.sigma * np.sqrt(np.concatenate(lag_all)[order])
             ref_state = track.states(time_ref)
         else:
-            times = plan.times
-            time_ref = None
-            ref_state = None
+            times, time_ref, ref_state = plan.times, None, None
             sigma_si = np.full(times.shape, plan.sigma if plan.sigma is not None
                                else snr_to_sigma_db(float(plan.snr_db or 0.0)))
         n = times.shape[0]
