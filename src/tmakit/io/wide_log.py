@@ -58,12 +58,9 @@ class _Table:
         self.problems: list[str] = []
         self.heading: NDArray[np.float64] | None = None  # deg true per row, for relative bearings
 
-    def row(self, row: int) -> str:
-        line = f" (line {self.lines[row]})" if self.lines is not None else ""
-        return f"row {row + 1}{line}"
-
     def where(self, row: int, column: str) -> str:
-        return f"{self.row(row)}, column {column!r}"
+        line = f" (line {self.lines[row]})" if self.lines is not None else ""
+        return f"row {row + 1}{line}, column {column!r}"
 
     def need(self, column: str | None, purpose: str) -> bool:
         if column is None or column in self.frame.columns:
