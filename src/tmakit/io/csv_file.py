@@ -408,9 +408,10 @@ def stream_csv(path: Path, scan: int = 1 << 20,
     if "tonal" in stripped:  # (tonals: the full reader)
         return None
     enu_origin: tuple[float, float, float] | None = None
-    if "sensor_lat" in stripped:
-        enu_origin, origin_metadata = _origin(origin, metadata)
-        if enu_origin is None:
+    if "sensor_lat" in stripped:  # the ENU origin as the full reader picks it
+        problems = Problems(RawTable(None, metadata, None))
+        enu_origin, origin_metadata = resolve_origin(origin, metadata, problems)
+        if enu_origin is None or problems.file:
             return None
         metadata = {**metadata, **origin_metadata}
     try:
@@ -466,14 +467,6 @@ def _need(kind: NDArray[np.int8], ref: NDArray[np.float64], lo: int) -> NDArray[
     """Flag the range differences without ``ref_sensor_*`` cells of a block from row ``lo``."""
     hi = lo + QUERY_ROWS
     return (_USES_REFERENCE[kind[lo:hi]] & ~_BETWEEN_SENSORS[kind[lo:hi]] & np.isnan(ref[lo:hi, 0]))
-
-
-def _origin(origin: tuple[float, float, float] | None, metadata: dict[str, str]
-            ) -> tuple[tuple[float, float, float] | None, dict[str, str]]:
-    """Pick the ENU origin as the full reader does (:func:`.checker.resolve_origin`)."""
-    problems = Problems(RawTable(None, metadata, None))
-    found, origin_metadata = resolve_origin(origin, metadata, problems)
-    return (None, {}) if problems.file else (found, origin_metadata)
 
 
 def _parse_options(names: list[str], types: Callable[[str], Any], *,
