@@ -242,12 +242,7 @@ def _column_name(name: str) -> str:
 
 def run_closed_loop(policy: Policy, plan: SensorPlan, setup: LoopSetup,
                     seed: int | np.random.SeedSequence | None = None) -> LoopRecord:
-    """Run the closed loop for ``setup.steps`` decisions.
-
-    References
-    ----------
-    Hurtado & Nehorai (2008), sections 3-5 and eqs. 10-13.
-    """
+    """Run the closed loop for ``setup.steps`` decisions (Hurtado & Nehorai (2008), §3-5)."""
     _check_plan(plan, setup)
     r_truth, r_prior, r_meas, r_track = (np.random.default_rng(s) for s in _streams(seed))
     dim, d_steps, n = setup.dim, int(setup.steps), 2 * setup.dim

@@ -523,12 +523,7 @@ def _segments_kernel(x: Array, y: Array, v0: Array, phi0: Array, a_t: Array, a_n
 def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
                             a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike,
                             partials: bool = True) -> tuple[Array, Array | None]:
-    """Propagate one curvilinear segment by ``dt`` seconds (any sign); inputs broadcast.
-
-    References
-    ----------
-    Hörst & Oispuu (2010), eq. 1 (the closed form: see :mod:`tmakit.motion.curvilinear`).
-    """
+    """Propagate one curvilinear segment by ``dt`` s (any sign; eq. 1); the inputs broadcast."""
     args = np.broadcast_arrays(*(np.asarray(a, dtype=float)
                                  for a in (x, y, speed, course, a_t, a_n, dt)))
     shape = args[0].shape

@@ -17,7 +17,22 @@ from ..core.arrays import Array
 
 
 def state_names(dim: int) -> tuple[str, ...]:
-    """Name the filter state components of a ``dim``-D (2 or 3) state, else ValueError."""
+    """Name the filter state components.
+
+    Parameters
+    ----------
+    dim : int
+        2 or 3.
+
+    Returns
+    -------
+    tuple of str
+
+    Raises
+    ------
+    ValueError
+        For ``dim`` other than 2 or 3.
+    """
     if dim == 2:
         return ("x", "y", "vx", "vy")
     if dim == 3:
@@ -26,14 +41,49 @@ def state_names(dim: int) -> tuple[str, ...]:
 
 
 def transition_matrix(dt: float, dim: int) -> Array:
-    """Give ``Phi(dt) = [[I, dt I], [0, I]]`` ``(2 dim, 2 dim)`` for ``dt`` s (Chen & Sun, §2.1)."""
+    """Give the transition matrix ``Phi(dt) = [[I, dt I], [0, I]]`` (Chen & Sun, §2.1).
+
+    Parameters
+    ----------
+    dt : float
+        s, any sign.
+    dim : int
+        2 or 3.
+
+    Returns
+    -------
+    ndarray
+        ``(2 dim, 2 dim)``.
+    """
     phi = np.eye(2 * dim)
     phi[:dim, dim:] = dt * np.eye(dim)
     return phi
 
 
 def process_noise(dt: float, q: ArrayLike, dim: int, density: ArrayLike = 0.0) -> Array:
-    """Give ``Q_k`` of a ``dt`` s step, per-axis ``q`` m/s^2 and ``density`` m^2/s^3."""
+    """Give the process noise covariance ``Q_k`` of one step (m^2, m^2/s, m^2/s^2).
+
+    Parameters
+    ----------
+    dt : float
+        s; its sign does not matter.
+    q : array_like
+        Per-axis acceleration std, m/s^2 (a scalar for every axis; Chen & Sun, §2.1).
+    dim : int
+        2 or 3.
+    density : array_like, optional
+        Per-axis spectral density, m^2/s^3 (Bar-Shalom, Li & Kirubarajan (2001), eq. 6.2.2-12).
+
+    Returns
+    -------
+    ndarray
+        ``(2 dim, 2 dim)``.
+
+    Raises
+    ------
+    ValueError
+        For a negative or non-finite ``q`` or ``density``.
+    """
     q = np.broadcast_to(np.asarray(q, dtype=float), (dim,))
     if np.any(q < 0) or not np.all(np.isfinite(q)):
         raise ValueError(f"process noise q must be finite and >= 0 m/s^2; got {q.tolist()}")
@@ -84,7 +134,12 @@ class NearlyConstantVelocity:
         process_noise(1.0, self.q, self.dim, self.q_density)  # validates both
 
     def axes(self) -> tuple[Array, Array]:
-        """Give ``q`` (m/s^2) and ``q_density`` (m^2/s^3) per axis, ``(dim,)`` each."""
+        """Give ``q`` (m/s^2) and ``q_density`` (m^2/s^3) per axis.
+
+        Returns
+        -------
+        q, q_density : ndarray, shape (dim,)
+        """
         return (np.broadcast_to(np.asarray(self.q, dtype=float), (self.dim,)).copy(),
                 np.broadcast_to(np.asarray(self.q_density, dtype=float), (self.dim,)).copy())
 
@@ -94,15 +149,47 @@ class NearlyConstantVelocity:
         return 2 * self.dim
 
     def transition(self, dt: float) -> Array:
-        """Give ``Phi(dt)`` for a step ``dt`` (s, any sign)."""
+        """Give ``Phi(dt)`` for a step ``dt``.
+
+        Parameters
+        ----------
+        dt : float
+            s, any sign.
+
+        Returns
+        -------
+        ndarray, shape (2 dim, 2 dim)
+        """
         return transition_matrix(dt, self.dim)
 
     def noise(self, dt: float) -> Array:
-        """Give ``Q_k`` for a step ``dt`` (s): m^2, m^2/s, m^2/s^2."""
+        """Give ``Q_k`` for a step ``dt``: m^2, m^2/s, m^2/s^2.
+
+        Parameters
+        ----------
+        dt : float
+            s.
+
+        Returns
+        -------
+        ndarray, shape (2 dim, 2 dim)
+        """
         return process_noise(dt, self.q, self.dim, self.q_density)
 
     def propagate(self, mean: Array, dt: float) -> tuple[Array, Array]:
-        """Give ``Phi(dt) mean`` and the transition's Jacobian ``Phi(dt)`` (``dt`` in s)."""
+        """Give the mean moved by ``dt`` and the transition's Jacobian there.
+
+        Parameters
+        ----------
+        mean : ndarray, shape (n_state,)
+        dt : float
+            s.
+
+        Returns
+        -------
+        mean, jacobian : ndarray
+            ``Phi(dt) mean`` and ``Phi(dt)``: the model is linear.
+        """
         phi = self.transition(dt)
         return phi @ mean, phi
 
