@@ -427,7 +427,7 @@ class ClosedLoopStudy:
             The case.
         name : str
             A :class:`~tmakit.montecarlo.closed_loop.LoopRecord` field (``error_m``,
-            ``bound_m``, ``range_m``, ``sensor``, ...).
+            ``criterion_m``, ``range_m``, ``sensor``, ...).
 
         Returns
         -------
