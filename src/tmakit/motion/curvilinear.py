@@ -259,29 +259,11 @@ NormalMaker = Callable[[NDArray[np.int64] | None], tuple[Array, Array]]
 
 
 class ForwardPiecewise(MotionModel):
-    """Piecewise curvilinear motion, change-over times after the reference time, in batches.
+    """Piecewise curvilinear motion (eqs. 1-4), ``M >= 0`` manoeuvres after ``ref_time``, batched.
 
-    Like :class:`~tmakit.motion.PiecewiseCurvilinear` with analytic derivatives; vectors with
-    ``t_1 <= ref_time``, times out of order or at or after ``end_time`` give NaN states.  The last
-    derivatives are cached: do not share an instance between threads.
-
-    Parameters
-    ----------
-    manoeuvres : int
-        ``M`` >= 0.
-    ref_time : float
-        s, before every change-over time.
-    end_time : float
-        s; default none.
-
-    Raises
-    ------
-    ValueError
-        For a negative number of manoeuvres.
-
-    References
-    ----------
-    Hörst & Oispuu (2010), eqs. 1-4.
+    :class:`~tmakit.motion.PiecewiseCurvilinear`'s states with the search's chain rule and
+    normal equations; ``t_1 <= ref_time``, times out of order or at or after ``end_time`` (s)
+    give NaN states.  The last derivatives are cached: one instance per thread.
     """
 
     dim = 2
