@@ -224,7 +224,6 @@ BATCHES = 10
 DOMINANCE = 0.2
 
 
-# -- inputs ---------------------------------------------------------------------------------
 def _cross_group_correlation(meas: MeasurementSet, groups: list[NDArray[np.int64]]) -> bool:
     """Tell whether range differences of one sensor in two groups share a pulse interval."""
     label = np.empty(len(meas), dtype=np.int64)
@@ -434,7 +433,6 @@ def _posterior(source: object, prior_mean: ArrayLike | None, prior_cov: ArrayLik
     return _bound(setup, infos, share, trajectories, sample, notes)
 
 
-# -- public API -----------------------------------------------------------------------------
 def posterior_crb(source: MeasurementSet | object, prior_mean: ArrayLike | None,
                   prior_cov: ArrayLike, time0: float | None = None, *,
                   q: float | ArrayLike = 0.0, trajectories: int = 200,

@@ -292,7 +292,6 @@ def run_closed_loop(policy: Policy, plan: SensorPlan, setup: LoopSetup,
         rec["information"])
 
 
-
 @dataclass(frozen=True, eq=False)
 class LoopCase:
     """One case of a closed-loop study.

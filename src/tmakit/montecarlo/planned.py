@@ -42,7 +42,6 @@ FIXED = "fixed"
 DEFAULT_LEGS = 10
 
 
-
 def leg_duration(setup: PlanningSetup) -> float:
     """Return the mission planner's leg, s: the table's, or a tenth of the duration."""
     if setup.leg_duration is not None:

@@ -118,7 +118,6 @@ class MonteCarloResult:
     failures: dict[int, str] = field(default_factory=dict)
     bound: Bound | None = None
 
-    # -- counts ----------------------------------------------------------------------------
     @property
     def runs(self) -> int:
         """Number of runs."""
@@ -174,7 +173,6 @@ class MonteCarloResult:
         """
         return self.estimates(converged_only) - self.truth
 
-    # -- summaries -------------------------------------------------------------------------
     def summary_table(self, level: float = 0.95) -> list[dict[str, Any]]:
         """Tabulate the summary, one row per parameter.
 

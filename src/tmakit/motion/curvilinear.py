@@ -107,7 +107,6 @@ class PiecewiseCurvilinear(MotionModel):
         self.param_names = _param_names(self.manoeuvres)
         self.name = f"curvilinear:{self.manoeuvres}"
 
-    # -- parameter layout ----------------------------------------------------------------
     def accel_index(self, segment: int) -> tuple[int, int]:
         """Give the indices of ``at_segment`` and ``an_segment`` in ``theta``.
 
@@ -136,7 +135,6 @@ class PiecewiseCurvilinear(MotionModel):
         """
         return 5 + 2 * self.manoeuvres + m
 
-    # -- evaluation ------------------------------------------------------------------------
     def _evaluate(self, theta: Array, t: Array, derivatives: bool
                   ) -> tuple[Array, Array, Array | None]:
         """Evaluate ``theta`` ``(B, p)`` at times ``t`` (compiled), with derivatives if asked."""
@@ -302,7 +300,6 @@ class ForwardPiecewise(MotionModel):
         theta = self.check_theta(theta)
         return theta.reshape(-1, self.n_params), theta.shape[:-1]
 
-    # -- the MotionModel interface -----------------------------------------------------------
     def states(self, theta: ArrayLike, t: ArrayLike) -> Array:
         """Give ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s)."""
         return self._rows_states(theta, t, None)

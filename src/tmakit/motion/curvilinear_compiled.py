@@ -349,7 +349,6 @@ def _scatter_kernel(vals: Array, inv: Array, sensor: Array, out: Array
             out[b, i, 5] = zero - sensor[i, 5]
 
 
-# -- normal equations by segments -----------------------------------------------------------
 @_inline
 def _inputs(ds: Array, par: Array, d_anchor: Array, b: int, i: int, u: int, sg: int,
             own: int, w: float, v: Array) -> None:  # pragma: no cover - compiled
@@ -478,7 +477,6 @@ def _segments_kernel(x: Array, y: Array, v0: Array, phi0: Array, a_t: Array, a_n
         par[i, 3, 6] = an_v
 
 
-# -- the calls ------------------------------------------------------------------------------
 def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
                             a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike,
                             partials: bool = True) -> tuple[Array, Array | None]:
