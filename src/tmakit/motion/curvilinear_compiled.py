@@ -445,36 +445,20 @@ def _add_segment(s: Array, g: Array, d: Array, dv: Array, jtj: Array, jtr: Array
 def _segments_kernel(x: Array, y: Array, v0: Array, phi0: Array, a_t: Array, a_n: Array,
                      s: Array, partials: bool, vals: Array,
                      par: Array) -> None:  # pragma: no cover - compiled
-    """Write each sample's values ``(6,)`` and, with ``partials``, its derivatives ``(6, 7)``."""
+    """Write each sample's values ``(1, n, 6)`` and, with ``partials``, its ``(1, n, 6, 7)``."""
     for i in range(x.shape[0]):
         V0 = v0[i] * cmath.exp(1j * phi0[i])
-        ok, v6, dz, dv, _ = _segment(x[i], y[i], v0[i], phi0[i], V0, a_t[i], a_n[i], s[i],
-                                     False)
-        for k in range(6):
-            vals[i, k] = v6[k]
-        if not partials:
-            continue
-        if not ok:
-            par[i, :, :] = np.nan
-            continue
-        par[i, :, :] = 0.0
-        par[i, 0, 0] = par[i, 1, 1] = 1.0
-        for k in range(5):
-            par[i, 0, 2 + k] = dz[k].imag
-            par[i, 1, 2 + k] = dz[k].real
-            par[i, 4, 2 + k] = dv[k].imag
-            par[i, 5, 2 + k] = dv[k].real
-        sv = s[i] / v0[i]
-        L, dL = _log1p_over(a_t[i] * sv)
-        an_v = a_n[i] / v0[i] / (1.0 + a_t[i] * sv)
-        par[i, 2, 2] = 1.0
-        par[i, 2, 4] = s[i]
-        par[i, 2, 6] = a_t[i]
-        par[i, 3, 2] = -an_v * sv
-        par[i, 3, 3] = 1.0
-        par[i, 3, 4] = a_n[i] * sv * sv * dL
-        par[i, 3, 5] = sv * L
-        par[i, 3, 6] = an_v
+        out = _segment(x[i], y[i], v0[i], phi0[i], V0, a_t[i], a_n[i], s[i], False)
+        if partials:  # position, speed and course as the anchors have them, then the velocity
+            _write(_segment(x[i], y[i], v0[i], phi0[i], V0, a_t[i], a_n[i], s[i], True), vals,
+                   par, 0, i, True, True, s[i], a_t[i])
+            dv = out[3]
+            for k in range(7):
+                par[0, i, 4, k] = 0.0 if k < 2 else dv[k - 2].imag
+                par[0, i, 5, k] = 0.0 if k < 2 else dv[k - 2].real
+            if not out[0]:
+                par[0, i, 4:, :] = np.nan
+        _write(out, vals, par, 0, i, False, False, s[i], a_t[i])
 
 
 def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
@@ -485,8 +469,8 @@ def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course
                                  for a in (x, y, speed, course, a_t, a_n, dt)))
     shape = args[0].shape
     x0, y0, v0, phi0, at, an, s = (np.ascontiguousarray(a.reshape(-1)) for a in args)
-    vals = np.empty((s.shape[0], 6))
-    par = np.empty((s.shape[0], 6, 7)) if partials else np.empty((1, 6, 7))
+    vals = np.empty((1, s.shape[0], 6))
+    par = np.empty((1, s.shape[0], 6, 7)) if partials else np.empty((1, 1, 6, 7))
     _segments_kernel(x0, y0, v0, phi0, at, an, s, partials, vals, par)
     return vals.reshape(*shape, 6), (par.reshape(*shape, 6, 7) if partials else None)
 
