@@ -1,4 +1,4 @@
-"""The manoeuvre parameter vectors the kernel tests share (:func:`hoerst_thetas`)."""
+"""What the motion and kernel tests share: :func:`hoerst_thetas`, :func:`numerical_jacobian`."""
 
 from __future__ import annotations
 
@@ -20,3 +20,19 @@ def hoerst_thetas(m: int, rng: np.random.Generator, rows: int) -> np.ndarray:
     theta = np.tile(base, (rows, 1))
     theta[:, 4:6 + 2 * m] += 0.01 * rng.normal(size=(rows, 2 + 2 * m))
     return theta
+
+
+def numerical_jacobian(model, theta: np.ndarray, t: np.ndarray,
+                       rel_step: float = 1e-6) -> np.ndarray:
+    """``d state / d theta`` ``(..., n, 6, p)`` of a motion model by central differences."""
+    theta = model.check_theta(theta)
+    t = np.asarray(t, dtype=float)
+    cols = []
+    for j in range(model.n_params):
+        h = rel_step * np.maximum(1.0, np.abs(theta[..., j]))
+        step = np.zeros(theta.shape)
+        step[..., j] = h
+        up = model.states(theta + step, t)
+        down = model.states(theta - step, t)
+        cols.append((up - down) / (2.0 * h[..., None, None]))
+    return np.stack(cols, axis=-1)

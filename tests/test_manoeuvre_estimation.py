@@ -9,6 +9,7 @@ import json
 
 import numpy as np
 import pytest
+from kernel_paths import numerical_jacobian
 from typer.testing import CliRunner
 
 import tmakit as tk
@@ -26,7 +27,6 @@ from tmakit.motion import (
     PiecewiseCurvilinear,
     propagate_curvilinear,
 )
-from tmakit.motion.base import numerical_jacobian
 from tmakit.motion.curvilinear import ForwardPiecewise
 from tmakit.motion.curvilinear_compiled import propagate_with_partials
 

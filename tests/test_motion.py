@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from kernel_paths import numerical_jacobian
 from scipy.integrate import solve_ivp
 
 from tmakit.core.frames import wrap_angle
@@ -17,7 +18,6 @@ from tmakit.motion import (
     motion_from_name,
     propagate_curvilinear,
 )
-from tmakit.motion.base import numerical_jacobian
 from tmakit.motion.names import DEFAULT_MANOEUVRES
 
 HYPOTHESIS = settings(max_examples=60, deadline=None)
@@ -152,7 +152,7 @@ def test_batch_theta(model):
     theta2 = theta[:4].reshape(2, 2, -1)
     assert model.states(theta2, t).shape == (2, 2, t.size, 6)
     np.testing.assert_array_equal(model.states(theta2, t)[1, 0], states[2])
-    # numerical_jacobian (used by the curvilinear model) handles batches too
+    # numerical_jacobian handles batches too
     numeric = numerical_jacobian(model, theta, t)
     assert numeric.shape == jac.shape
     for b in range(B):

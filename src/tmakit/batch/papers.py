@@ -779,10 +779,8 @@ class RatioMethod(PaperMethod):
                 band = Banded(diag, off)
             except np.linalg.LinAlgError:
                 return "the covariance Sigma is not positive definite"
-            lw, pw = band.whiten(lmat), band.whiten(psi)
-            scale = np.linalg.norm(lw, axis=0)
-            scale = np.where(scale > 0, scale, 1.0)
-            new = np.linalg.lstsq(lw / scale, pw, rcond=None)[0] / scale           # D^-1 N
+            lw_eq, scale = _equilibrate(band.whiten(lmat))
+            new = np.linalg.lstsq(lw_eq, band.whiten(psi), rcond=None)[0] / scale  # D^-1 N
             return new if np.all(np.isfinite(new)) else NON_FINITE
 
         steps: list[float] = []

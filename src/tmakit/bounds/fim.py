@@ -213,12 +213,7 @@ def crlb_with_sensor_errors(meas: MeasurementSet, motion: MotionModel,
                             nuisance: Mapping[str, float] | None = None,
                             options: Mapping[str, Mapping[str, object]] | None = None
                             ) -> tuple[Bound, Bound]:
-    """Give the CRLB with sensor position errors, and the one with positions known.
-
-    References
-    ----------
-    Ho, Lu & Kovavisaruch (2007) (the CRLB with receiver position errors).
-    """
+    """Give the CRLB with sensor position errors (Ho, Lu & Kovavisaruch (2007)), and without."""
     known = crlb(meas, motion, truth, nuisance, None, options)
     theta = truth_vector(motion, truth)
     obs = ObservationModel(meas, motion, options)

@@ -20,19 +20,9 @@ from ..measurements import options_with_metadata
 __all__ = ["LayoutRows", "cep", "layout_information"]
 
 class LayoutRows:
-    """The rows of a layout as the bound needs them: states, sigmas, groups, scale.
+    """The ``tdoa`` and ``fdoa`` rows of a layout (values unused) as the bound needs them.
 
-    Parameters
-    ----------
-    meas : MeasurementSet
-        Rows of kinds ``tdoa`` and ``fdoa`` only (their values are not used).
-    carrier : float, optional
-        The FDOA carrier (Hz), when the set's options do not state it.
-
-    Raises
-    ------
-    ValueError
-        For another kind, or FDOA rows without a known carrier.
+    ``carrier``: the FDOA carrier (Hz) when the set's options do not state it.
     """
 
     def __init__(self, meas: MeasurementSet, carrier: float | None = None) -> None:

@@ -224,7 +224,6 @@ BATCHES = 10
 DOMINANCE = 0.2
 
 
-# -- inputs ---------------------------------------------------------------------------------
 def _cross_group_correlation(meas: MeasurementSet, groups: list[NDArray[np.int64]]) -> bool:
     """Tell whether range differences of one sensor in two groups share a pulse interval."""
     label = np.empty(len(meas), dtype=np.int64)
@@ -299,18 +298,15 @@ class _Setup:
 
 def _dynamics(q: float | ArrayLike, dim: int, q_density: float | ArrayLike = 0.0
               ) -> tuple[NearlyConstantVelocity, tuple[float, ...]]:
-    if np.ndim(q) and np.size(q) != dim:
-        raise ValueError(f"q must be one value or {dim} values (one per axis) in m/s^2; "
-                         f"got {np.size(q)}")
+    for name, value, unit in (("q", q, "m/s^2"), ("q_density", q_density, "m^2/s^3")):
+        if np.ndim(value) and np.size(value) != dim:
+            raise ValueError(f"{name} must be one value or {dim} values (one per axis) in "
+                             f"{unit}; got {np.size(value)}")
     values = np.ravel(np.asarray(q, dtype=np.float64))
-    if np.ndim(q_density) and np.size(q_density) != dim:
-        raise ValueError(f"q_density must be one value or {dim} values (one per axis) in "
-                         f"m^2/s^3; got {np.size(q_density)}")
-    density = tuple(float(v) for v in np.broadcast_to(np.asarray(q_density, dtype=float),
-                                                      (dim,)))
+    q_axes, density = (tuple(float(v) for v in np.broadcast_to(np.asarray(a, dtype=float), (dim,)))
+                       for a in (q, q_density))
     dynamics = NearlyConstantVelocity(dim, float(values[0]) if np.ndim(q) == 0 else tuple(
         float(v) for v in values), density)
-    q_axes = tuple(float(v) for v in np.broadcast_to(np.asarray(q, dtype=float), (dim,)))
     return dynamics, q_axes
 
 
@@ -434,7 +430,6 @@ def _posterior(source: object, prior_mean: ArrayLike | None, prior_cov: ArrayLik
     return _bound(setup, infos, share, trajectories, sample, notes)
 
 
-# -- public API -----------------------------------------------------------------------------
 def posterior_crb(source: MeasurementSet | object, prior_mean: ArrayLike | None,
                   prior_cov: ArrayLike, time0: float | None = None, *,
                   q: float | ArrayLike = 0.0, trajectories: int = 200,

@@ -242,12 +242,7 @@ def _column_name(name: str) -> str:
 
 def run_closed_loop(policy: Policy, plan: SensorPlan, setup: LoopSetup,
                     seed: int | np.random.SeedSequence | None = None) -> LoopRecord:
-    """Run the closed loop for ``setup.steps`` decisions.
-
-    References
-    ----------
-    Hurtado & Nehorai (2008), sections 3-5 and eqs. 10-13.
-    """
+    """Run the closed loop for ``setup.steps`` decisions (Hurtado & Nehorai (2008), §3-5)."""
     _check_plan(plan, setup)
     r_truth, r_prior, r_meas, r_track = (np.random.default_rng(s) for s in _streams(seed))
     dim, d_steps, n = setup.dim, int(setup.steps), 2 * setup.dim
@@ -295,7 +290,6 @@ def run_closed_loop(policy: Policy, plan: SensorPlan, setup: LoopSetup,
         rec["predicted_criterion_m"], np.linalg.norm(est[:, :dim] - tru[:, :dim], axis=1),
         np.linalg.norm(tru[:, :dim] - rec["sensor"][:, :dim], axis=1), violations,
         rec["information"])
-
 
 
 @dataclass(frozen=True, eq=False)
@@ -432,7 +426,7 @@ class ClosedLoopStudy:
             The case.
         name : str
             A :class:`~tmakit.montecarlo.closed_loop.LoopRecord` field (``error_m``,
-            ``bound_m``, ``range_m``, ``sensor``, ...).
+            ``criterion_m``, ``range_m``, ``sensor``, ...).
 
         Returns
         -------

@@ -192,7 +192,7 @@ def cluster(dask: str | Client | None) -> Iterator[Client | None]:
 
 
 def _keep_freed_memory_on(client: Client) -> None:
-    """Have the cluster's worker processes keep freed memory (:mod:`.memory`), not this one."""
+    """Have the cluster's workers keep freed memory (:func:`keep_freed_memory`), not this one."""
     pids = client.run(os.getpid)
     if os.getpid() not in set(pids.values()):
         client.run(keep_freed_memory)

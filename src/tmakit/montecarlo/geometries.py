@@ -15,12 +15,7 @@ def final_position_rms(source: str | Scenario = "bearings-only-2d",
                        prior_cov: ArrayLike | None = None, time0: float | None = None, *,
                        q: float | ArrayLike = 0.0, trajectories: int | None = 200,
                        rng: np.random.Generator | int | None = None) -> float:
-    """Return the posterior-CRB bound on the RMS position error (m) after the last update.
-
-    References
-    ----------
-    Tichavský, Muravchik & Nehorai (1998), eqs. 10-11.
-    """
+    """Return the posterior CRB's RMS position error (m) after the last update."""
     if prior_cov is None:
         raise ValueError("prior_cov is required (n x n, SI)")
     scenario = load_scenario(source) if isinstance(source, str) else source

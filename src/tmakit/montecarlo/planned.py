@@ -42,7 +42,6 @@ FIXED = "fixed"
 DEFAULT_LEGS = 10
 
 
-
 def leg_duration(setup: PlanningSetup) -> float:
     """Return the mission planner's leg, s: the table's, or a tenth of the duration."""
     if setup.leg_duration is not None:
@@ -175,13 +174,10 @@ class PlanRun:
         Returns
         -------
         pandas.DataFrame
-            The closed-loop study's columns (``case``, ``run``, ``step``, ``time`` (s),
-            ``sensor_x``, ``sensor_y`` (m), ``action``, ``criterion_m``,
-            ``predicted_criterion_m``, ``error_m``, ``range_m`` (m), ``decision_ms`` (ms),
-            ``violation_m`` and one ``violation_<constraint>_m`` each) and the flown sensor
-            heading ``sensor_heading_deg`` (deg clockwise from North), the true and
-            estimated target position ``truth_x``, ``truth_y``, ``estimate_x``,
-            ``estimate_y`` (m) and velocity ``truth_vx``, ..., ``estimate_vy`` (m/s).
+            :meth:`ClosedLoopStudy.table`'s columns, the flown sensor heading
+            ``sensor_heading_deg`` (deg clockwise from North), the true and estimated target
+            position ``truth_x``, ..., ``estimate_y`` (m) and velocity ``truth_vx``, ...,
+            ``estimate_vy`` (m/s).
         """
         table = self.study.table()
         records = [r for case in self.study.cases for r in self.study.records[case]]
@@ -205,13 +201,8 @@ class PlanRun:
         Returns
         -------
         dict
-            ``final_rmse_m`` (position RMSE over runs at the last step, m), ``final_pcrb_m``
-            (the posterior CRB there, m), ``rmse_over_pcrb`` with its 95 % bootstrap interval
-            (``rmse_over_pcrb_low``, ``_high``; None under :data:`MIN_RUNS_INTERVAL` runs),
-            ``final_criterion_m`` (the planning criterion along the flown paths, RMS over
-            runs, m), ``min_range_m`` (true range, over every run and step, m),
-            ``violations`` (steps with a constraint violation, over every run),
-            ``max_violation_m`` (m), ``mean_decision_ms`` (ms), ``runs``, ``steps``.
+            :meth:`ClosedLoopStudy.summary`'s figures, ``violations`` (steps with a
+            constraint violation, over every run), ``max_violation_m`` (m) and ``steps``.
         """
         out: dict[str, float | int | None] = dict(self.study.summary(case))
         worst = np.concatenate([np.max(list(r.violations.values()), axis=0)

@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from ..batch.estimator import theta_from_init
 from ..bounds.fim import crlb
 from ..core.keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study_seed
 from ..results.answers import finite
@@ -117,7 +118,6 @@ class MonteCarloResult:
     failures: dict[int, str] = field(default_factory=dict)
     bound: Bound | None = None
 
-    # -- counts ----------------------------------------------------------------------------
     @property
     def runs(self) -> int:
         """Number of runs."""
@@ -165,16 +165,14 @@ class MonteCarloResult:
         Parameters
         ----------
         converged_only : bool
-            Keep the converged runs only.
+            As for :meth:`estimates`.
 
         Returns
         -------
         ndarray, shape (runs, p)
-            One row per run, in the order of ``parameters`` (SI: m, m/s, Hz, ...).
         """
         return self.estimates(converged_only) - self.truth
 
-    # -- summaries -------------------------------------------------------------------------
     def summary_table(self, level: float = 0.95) -> list[dict[str, Any]]:
         """Tabulate the summary, one row per parameter.
 
@@ -290,9 +288,7 @@ class MonteCarloResult:
 
 
 COMPILED_WORK = 200_000
-"""Runs times rows from which a study's batched fits evaluate by the compiled kernel
-(:mod:`tmakit.observation.varpro_compiled`): loading it (about 0.2 s per process) then costs
-less than it saves (about 5 us per run and row, measured on gu2007).  Below, the NumPy path."""
+"""Runs times rows from which a study's batched fits use the compiled kernel (loads in ~0.2 s)."""
 
 
 def _compiled(scenario: Scenario, runs: int) -> bool:
@@ -307,18 +303,6 @@ def _workers(workers: object, dask: object) -> int:
         raise ValueError(f"give either dask (a cluster) or workers (processes here), not both "
                          f"(workers={count})")
     return count
-
-
-def _check_init(scenario: Scenario, init: Mapping[str, float] | ArrayLike | None) -> None:
-    """Refuse a bad ``init`` before any run."""
-    motion = scenario.motion
-    if init is None:
-        return
-    if isinstance(init, Mapping):
-        motion.theta(init)
-    elif np.asarray(init, dtype=float).size != motion.n_params:
-        raise ValueError(f"init must give {motion.n_params} values "
-                         f"({', '.join(motion.param_names)})")
 
 
 def _known(scenario: Scenario, known_nuisance: KnownNuisanceLike) -> KnownNuisance | None:
@@ -449,7 +433,8 @@ def monte_carlo(scenario: Scenario | str | Path, estimator: str = "ml", runs: in
     seed_used = study_seed(renamed_keyword("monte_carlo", "seed", seed, "rng", rng, 0))
     known = _known(scenario, known_nuisance)
     check_estimator(estimator, known is not None)
-    _check_init(scenario, init)
+    if init is not None:  # refused before any run
+        theta_from_init(scenario.motion, init)
     opts = _options(scenario, options)
 
     seq, compiled = np.random.SeedSequence(seed_used), _compiled(scenario, runs)

@@ -71,10 +71,8 @@ class MotionModel(ABC):
 
         Parameters
         ----------
-        theta : array_like
-            ``(..., p)``, SI.
-        t : array_like
-            ``(n,)``, s.
+        theta, t : array_like
+            As for :meth:`states`.
 
         Returns
         -------
@@ -118,7 +116,6 @@ class MotionModel(ABC):
         Returns
         -------
         tuple of ndarray or None
-            None when the model is not affine.
         """
         amap = self.affine_map(t)
         if amap is None:
@@ -163,10 +160,8 @@ class MotionModel(ABC):
         ----------
         d_state : ndarray
             ``(..., n, 6)``, per m and per m/s.
-        theta : array_like
-            ``(..., p)``, SI.
-        t : array_like
-            ``(n,)``, s.
+        theta, t : array_like
+            As for :meth:`states`.
 
         Returns
         -------
@@ -216,17 +211,11 @@ class MotionModel(ABC):
         ValueError
             For a missing or an unknown name.
         """
-        names = self.param_names
-        if len(values) == len(names) and all(name in values for name in names):  # (the usual)
-            return np.array([float(values[name]) for name in names])
         missing = [name for name in self.param_names if name not in values]
         unknown = [name for name in values if name not in self.param_names]
         if missing or unknown:
-            parts = []
-            if missing:
-                parts.append(f"missing {', '.join(missing)}")
-            if unknown:
-                parts.append(f"unknown {', '.join(unknown)}")
+            parts = [f"{word} {', '.join(names)}" for word, names in
+                     (("missing", missing), ("unknown", unknown)) if names]
             raise ValueError(
                 f"parameters for motion model {self.name!r}: {'; '.join(parts)} "
                 f"(expected {', '.join(self.param_names)})"
@@ -286,23 +275,6 @@ class MotionModel(ABC):
     def __repr__(self) -> str:
         """Name the class and its parameters."""
         return f"{type(self).__name__}({', '.join(self.param_names)})"
-
-
-def numerical_jacobian(model: MotionModel, theta: ArrayLike, t: ArrayLike,
-                       rel_step: float = 1e-6) -> NDArray[np.float64]:
-    """Compute ``d state / d theta`` ``(..., n, 6, p)`` by central differences."""
-    theta = model.check_theta(theta)
-    t = np.asarray(t, dtype=float)
-    p = model.n_params
-    cols = []
-    for j in range(p):
-        h = rel_step * np.maximum(1.0, np.abs(theta[..., j]))
-        step = np.zeros(theta.shape)
-        step[..., j] = h
-        up = model.states(theta + step, t)
-        down = model.states(theta - step, t)
-        cols.append((up - down) / (2.0 * h[..., None, None]))
-    return np.stack(cols, axis=-1)
 
 
 class FixedParameters(MotionModel):

@@ -70,18 +70,6 @@ class ConstantVelocity(MotionModel):
             jac[:, 3 + i, d + i] = 1.0
         return np.broadcast_to(jac, (*theta.shape[:-1], *jac.shape)).copy()
 
-    def component_map(self, t: ArrayLike
-                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
-        """Give the affine map component-major, built directly (no ``(n, 6, p)`` tensor)."""
-        dt = np.asarray(t, dtype=float) - self.ref_time
-        d = self.dim
-        matrix = np.zeros((2 * d, 6, dt.shape[0]))
-        for i in range(d):
-            matrix[i, i] = 1.0
-            matrix[d + i, i] = dt
-            matrix[d + i, 3 + i] = 1.0
-        return matrix, np.zeros((6, dt.shape[0]))
-
     def component_terms(self, t: ArrayLike
                         ) -> tuple[list[tuple[int, int, NDArray[np.float64] | None]],
                                    NDArray[np.float64]] | None:

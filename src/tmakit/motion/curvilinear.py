@@ -107,7 +107,6 @@ class PiecewiseCurvilinear(MotionModel):
         self.param_names = _param_names(self.manoeuvres)
         self.name = f"curvilinear:{self.manoeuvres}"
 
-    # -- parameter layout ----------------------------------------------------------------
     def accel_index(self, segment: int) -> tuple[int, int]:
         """Give the indices of ``at_segment`` and ``an_segment`` in ``theta``.
 
@@ -136,7 +135,6 @@ class PiecewiseCurvilinear(MotionModel):
         """
         return 5 + 2 * self.manoeuvres + m
 
-    # -- evaluation ------------------------------------------------------------------------
     def _evaluate(self, theta: Array, t: Array, derivatives: bool
                   ) -> tuple[Array, Array, Array | None]:
         """Evaluate ``theta`` ``(B, p)`` at times ``t`` (compiled), with derivatives if asked."""
@@ -259,29 +257,11 @@ NormalMaker = Callable[[NDArray[np.int64] | None], tuple[Array, Array]]
 
 
 class ForwardPiecewise(MotionModel):
-    """Piecewise curvilinear motion, change-over times after the reference time, in batches.
+    """Piecewise curvilinear motion (eqs. 1-4), ``M >= 0`` manoeuvres after ``ref_time``, batched.
 
-    Like :class:`~tmakit.motion.PiecewiseCurvilinear` with analytic derivatives; vectors with
-    ``t_1 <= ref_time``, times out of order or at or after ``end_time`` give NaN states.  The last
-    derivatives are cached: do not share an instance between threads.
-
-    Parameters
-    ----------
-    manoeuvres : int
-        ``M`` >= 0.
-    ref_time : float
-        s, before every change-over time.
-    end_time : float
-        s; default none.
-
-    Raises
-    ------
-    ValueError
-        For a negative number of manoeuvres.
-
-    References
-    ----------
-    Hörst & Oispuu (2010), eqs. 1-4.
+    :class:`~tmakit.motion.PiecewiseCurvilinear`'s states with the search's chain rule and
+    normal equations; ``t_1 <= ref_time``, times out of order or at or after ``end_time`` (s)
+    give NaN states.  The last derivatives are cached: one instance per thread.
     """
 
     dim = 2
@@ -320,7 +300,6 @@ class ForwardPiecewise(MotionModel):
         theta = self.check_theta(theta)
         return theta.reshape(-1, self.n_params), theta.shape[:-1]
 
-    # -- the MotionModel interface -----------------------------------------------------------
     def states(self, theta: ArrayLike, t: ArrayLike) -> Array:
         """Give ENU states ``(..., n, 6)`` (m, m/s) at times ``t`` (s)."""
         return self._rows_states(theta, t, None)

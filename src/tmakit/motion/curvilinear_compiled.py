@@ -266,47 +266,6 @@ def _piecewise_kernel(theta: Array, t: Array, manoeuvres: int, ref_time: float,
 
 
 @_jit
-def _chain_kernel(ds: Array, par: Array, seg: IntArray, idx: IntArray, d_anchor: Array,
-                  manoeuvres: int, out: Array) -> None:  # pragma: no cover - compiled
-    """Write ``d value / d theta`` ``(B, n, p)`` into ``out``; see :func:`chain`."""
-    M = manoeuvres
-    b_count, n, p = out.shape
-    k0 = 6 + 2 * M
-    for b in range(b_count):
-        da = d_anchor[b]
-        for i in range(n):
-            u = idx[i]
-            sg = seg[b, u]
-            d0, d1, d3, d4 = ds[b, i, 0], ds[b, i, 1], ds[b, i, 3], ds[b, i, 4]
-            pu = (par[b, u, 0, 2], par[b, u, 1, 2], par[b, u, 2, 2], par[b, u, 3, 2],
-                  par[b, u, 0, 3], par[b, u, 1, 3], par[b, u, 2, 3], par[b, u, 3, 3],
-                  par[b, u, 0, 4], par[b, u, 1, 4], par[b, u, 2, 4], par[b, u, 3, 4],
-                  par[b, u, 0, 5], par[b, u, 1, 5], par[b, u, 2, 5], par[b, u, 3, 5],
-                  par[b, u, 0, 6], par[b, u, 1, 6], par[b, u, 2, 6], par[b, u, 3, 6])
-            w = (d0 * pu[0] + d1 * pu[1] + d3 * pu[2] + d4 * pu[3],
-                 d0 * pu[4] + d1 * pu[5] + d3 * pu[6] + d4 * pu[7],
-                 d0 * pu[8] + d1 * pu[9] + d3 * pu[10] + d4 * pu[11],
-                 d0 * pu[12] + d1 * pu[13] + d3 * pu[14] + d4 * pu[15],
-                 d0 * pu[16] + d1 * pu[17] + d3 * pu[18] + d4 * pu[19])
-            # a segment's start state depends on (x, y, speed, course), the accelerations
-            # and change-over times before it only: the other columns are 0
-            for c in range(4 + 2 * sg):
-                out[b, i, c] = (d0 * da[sg, 0, c] + d1 * da[sg, 1, c]
-                                + w[0] * da[sg, 2, c] + w[1] * da[sg, 3, c])
-            for c in range(4 + 2 * sg, k0):
-                out[b, i, c] = 0.0
-            for c in range(k0, k0 + sg):
-                out[b, i, c] = (d0 * da[sg, 0, c] + d1 * da[sg, 1, c]
-                                + w[0] * da[sg, 2, c] + w[1] * da[sg, 3, c])
-            for c in range(k0 + sg, p):
-                out[b, i, c] = 0.0
-            out[b, i, 4 + 2 * sg] += w[2]
-            out[b, i, 5 + 2 * sg] += w[3]
-            if sg >= 1:
-                out[b, i, 5 + 2 * M + sg] -= w[4]
-
-
-@_jit
 def _column_runs(cols: IntArray, M: int) -> tuple:  # pragma: no cover - compiled
     """Give, per segment of a row, where :func:`_chain_columns_kernel` writes what."""
     k0 = 6 + 2 * M
@@ -330,7 +289,7 @@ def _column_runs(cols: IntArray, M: int) -> tuple:  # pragma: no cover - compile
 def _chain_columns_kernel(ds: Array, par: Array, seg: IntArray, idx: IntArray,
                           d_anchor: Array, manoeuvres: int, cols: IntArray, out: Array
                           ) -> None:  # pragma: no cover - compiled
-    """Write :func:`_chain_kernel`'s columns ``cols`` (the same bits) into ``out`` ``(q, B, n)``."""
+    """Write ``d value / d theta``, columns ``cols``, into ``out`` ``(q, B, n)`` (:func:`chain`)."""
     M = manoeuvres
     q, b_count, n = out.shape
     lo, mid, hi, own = _column_runs(cols, M)
@@ -390,7 +349,6 @@ def _scatter_kernel(vals: Array, inv: Array, sensor: Array, out: Array
             out[b, i, 5] = zero - sensor[i, 5]
 
 
-# -- normal equations by segments -----------------------------------------------------------
 @_inline
 def _inputs(ds: Array, par: Array, d_anchor: Array, b: int, i: int, u: int, sg: int,
             own: int, w: float, v: Array) -> None:  # pragma: no cover - compiled
@@ -487,54 +445,32 @@ def _add_segment(s: Array, g: Array, d: Array, dv: Array, jtj: Array, jtr: Array
 def _segments_kernel(x: Array, y: Array, v0: Array, phi0: Array, a_t: Array, a_n: Array,
                      s: Array, partials: bool, vals: Array,
                      par: Array) -> None:  # pragma: no cover - compiled
-    """Write each sample's values ``(6,)`` and, with ``partials``, its derivatives ``(6, 7)``."""
+    """Write each sample's values ``(1, n, 6)`` and, with ``partials``, its ``(1, n, 6, 7)``."""
     for i in range(x.shape[0]):
         V0 = v0[i] * cmath.exp(1j * phi0[i])
-        ok, v6, dz, dv, _ = _segment(x[i], y[i], v0[i], phi0[i], V0, a_t[i], a_n[i], s[i],
-                                     False)
-        for k in range(6):
-            vals[i, k] = v6[k]
-        if not partials:
-            continue
-        if not ok:
-            par[i, :, :] = np.nan
-            continue
-        par[i, :, :] = 0.0
-        par[i, 0, 0] = par[i, 1, 1] = 1.0
-        for k in range(5):
-            par[i, 0, 2 + k] = dz[k].imag
-            par[i, 1, 2 + k] = dz[k].real
-            par[i, 4, 2 + k] = dv[k].imag
-            par[i, 5, 2 + k] = dv[k].real
-        sv = s[i] / v0[i]
-        L, dL = _log1p_over(a_t[i] * sv)
-        an_v = a_n[i] / v0[i] / (1.0 + a_t[i] * sv)
-        par[i, 2, 2] = 1.0
-        par[i, 2, 4] = s[i]
-        par[i, 2, 6] = a_t[i]
-        par[i, 3, 2] = -an_v * sv
-        par[i, 3, 3] = 1.0
-        par[i, 3, 4] = a_n[i] * sv * sv * dL
-        par[i, 3, 5] = sv * L
-        par[i, 3, 6] = an_v
+        out = _segment(x[i], y[i], v0[i], phi0[i], V0, a_t[i], a_n[i], s[i], False)
+        if partials:  # position, speed and course as the anchors have them, then the velocity
+            _write(_segment(x[i], y[i], v0[i], phi0[i], V0, a_t[i], a_n[i], s[i], True), vals,
+                   par, 0, i, True, True, s[i], a_t[i])
+            dv = out[3]
+            for k in range(7):
+                par[0, i, 4, k] = 0.0 if k < 2 else dv[k - 2].imag
+                par[0, i, 5, k] = 0.0 if k < 2 else dv[k - 2].real
+            if not out[0]:
+                par[0, i, 4:, :] = np.nan
+        _write(out, vals, par, 0, i, False, False, s[i], a_t[i])
 
 
-# -- the calls ------------------------------------------------------------------------------
 def propagate_with_partials(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
                             a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike,
                             partials: bool = True) -> tuple[Array, Array | None]:
-    """Propagate one curvilinear segment by ``dt`` seconds (any sign); inputs broadcast.
-
-    References
-    ----------
-    Hörst & Oispuu (2010), eq. 1 (the closed form: see :mod:`tmakit.motion.curvilinear`).
-    """
+    """Propagate one curvilinear segment by ``dt`` s (any sign; eq. 1); the inputs broadcast."""
     args = np.broadcast_arrays(*(np.asarray(a, dtype=float)
                                  for a in (x, y, speed, course, a_t, a_n, dt)))
     shape = args[0].shape
     x0, y0, v0, phi0, at, an, s = (np.ascontiguousarray(a.reshape(-1)) for a in args)
-    vals = np.empty((s.shape[0], 6))
-    par = np.empty((s.shape[0], 6, 7)) if partials else np.empty((1, 6, 7))
+    vals = np.empty((1, s.shape[0], 6))
+    par = np.empty((1, s.shape[0], 6, 7)) if partials else np.empty((1, 1, 6, 7))
     _segments_kernel(x0, y0, v0, phi0, at, an, s, partials, vals, par)
     return vals.reshape(*shape, 6), (par.reshape(*shape, 6, 7) if partials else None)
 
@@ -563,19 +499,16 @@ def _rows(ds: Array, idx: IntArray | None) -> tuple[int, int, IntArray]:
 
 def chain(ds: Array, par: Array, seg: IntArray, idx: IntArray | None, d_anchor: Array,
           manoeuvres: int, columns: NDArray[np.int64] | None = None) -> Array:
-    """Give ``d value / d theta`` ``(B, n, p)`` from ``d value / d state`` ``ds``."""
+    """Give ``d value / d theta`` ``(B, n, p)`` (or its ``columns``) from ``d value / d state``."""
     b, n, rows = _rows(ds, idx)
-    ds = np.asarray(ds, dtype=float)
-    if columns is not None:
-        # each column contiguous over the rows: the layout of a column selection of the
-        # whole (``jac[:, :, free]``), which the solver's J'J then reads as it is
-        out = np.empty((columns.size, b, n))
-        _chain_columns_kernel(ds, par, seg, rows, d_anchor, manoeuvres,
-                              np.ascontiguousarray(columns, dtype=np.int64), out)
-        return out.transpose(1, 2, 0)
-    out = np.empty((b, n, d_anchor.shape[-1]))
-    _chain_kernel(ds, par, seg, rows, d_anchor, manoeuvres, out)
-    return out
+    cols = (np.arange(d_anchor.shape[-1]) if columns is None
+            else np.ascontiguousarray(columns, dtype=np.int64))
+    # each column contiguous over the rows: the layout of a column selection of the whole
+    # (``jac[:, :, free]``), which the solver's J'J then reads as it is
+    out = np.empty((cols.size, b, n))
+    _chain_columns_kernel(np.asarray(ds, dtype=float), par, seg, rows, d_anchor, manoeuvres,
+                          cols, out)
+    return out.transpose(1, 2, 0)
 
 
 def segment_normal(ds: Array, r: Array, w: Array, par: Array, seg: IntArray,

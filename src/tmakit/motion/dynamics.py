@@ -41,7 +41,7 @@ def state_names(dim: int) -> tuple[str, ...]:
 
 
 def transition_matrix(dt: float, dim: int) -> Array:
-    """Give the transition matrix ``Phi(dt) = [[I, dt I], [0, I]]``.
+    """Give the transition matrix ``Phi(dt) = [[I, dt I], [0, I]]`` (Chen & Sun, §2.1).
 
     Parameters
     ----------
@@ -54,10 +54,6 @@ def transition_matrix(dt: float, dim: int) -> Array:
     -------
     ndarray
         ``(2 dim, 2 dim)``.
-
-    References
-    ----------
-    Chen & Sun, §2.1.
     """
     phi = np.eye(2 * dim)
     phi[:dim, dim:] = dt * np.eye(dim)
@@ -72,11 +68,11 @@ def process_noise(dt: float, q: ArrayLike, dim: int, density: ArrayLike = 0.0) -
     dt : float
         s; its sign does not matter.
     q : array_like
-        Per-axis acceleration std, m/s^2 (a scalar for every axis).
+        Per-axis acceleration std, m/s^2 (a scalar for every axis; Chen & Sun, §2.1).
     dim : int
         2 or 3.
     density : array_like, optional
-        Per-axis spectral density, m^2/s^3.
+        Per-axis spectral density, m^2/s^3 (Bar-Shalom, Li & Kirubarajan (2001), eq. 6.2.2-12).
 
     Returns
     -------
@@ -87,10 +83,6 @@ def process_noise(dt: float, q: ArrayLike, dim: int, density: ArrayLike = 0.0) -
     ------
     ValueError
         For a negative or non-finite ``q`` or ``density``.
-
-    References
-    ----------
-    Chen & Sun, §2.1 (``q``); Bar-Shalom, Li & Kirubarajan (2001), eq. 6.2.2-12 (``density``).
     """
     q = np.broadcast_to(np.asarray(q, dtype=float), (dim,))
     if np.any(q < 0) or not np.all(np.isfinite(q)):
@@ -157,11 +149,12 @@ class NearlyConstantVelocity:
         return 2 * self.dim
 
     def transition(self, dt: float) -> Array:
-        """Give ``Phi(dt)`` for a step ``dt`` (s, any sign).
+        """Give ``Phi(dt)`` for a step ``dt``.
 
         Parameters
         ----------
         dt : float
+            s, any sign.
 
         Returns
         -------
@@ -170,29 +163,27 @@ class NearlyConstantVelocity:
         return transition_matrix(dt, self.dim)
 
     def noise(self, dt: float) -> Array:
-        """Give ``Q_k`` for a step ``dt`` (s): m^2, m^2/s, m^2/s^2.
+        """Give ``Q_k`` for a step ``dt``: m^2, m^2/s, m^2/s^2.
 
         Parameters
         ----------
         dt : float
+            s.
 
         Returns
         -------
         ndarray, shape (2 dim, 2 dim)
-
-        References
-        ----------
-        Chen & Sun (1993), §2.1; Bar-Shalom, Li & Kirubarajan (2001), eq. 6.2.2-12 (density form).
         """
         return process_noise(dt, self.q, self.dim, self.q_density)
 
     def propagate(self, mean: Array, dt: float) -> tuple[Array, Array]:
-        """Give the mean moved by ``dt`` (s) and the transition's Jacobian there.
+        """Give the mean moved by ``dt`` and the transition's Jacobian there.
 
         Parameters
         ----------
         mean : ndarray, shape (n_state,)
         dt : float
+            s.
 
         Returns
         -------
@@ -236,10 +227,7 @@ class CoordinatedTurn(NearlyConstantVelocity):
 
 
 def _turn_terms(w: float, dt: float) -> tuple[float, float, float, float]:
-    """Give ``sin(w dt)/w``, ``(1 - cos(w dt))/w`` and their derivatives in ``w``.
-
-    By their Taylor series where ``w dt`` is small (the closed forms lose every digit at 0).
-    """
+    """Give ``sin(w dt)/w``, ``(1 - cos(w dt))/w`` and their ``w``-derivatives (Taylor near 0)."""
     a = w * dt
     if abs(a) < 1e-3:
         return (dt * (1.0 - a * a / 6.0), dt * a * (0.5 - a * a / 24.0),
@@ -254,8 +242,7 @@ class UnknownRateTurn(NearlyConstantVelocity):
 
     State ``[x, y, (z), vx, vy, (vz), omega]``: the horizontal velocity turns at the rate
     ``omega`` (rad/s, counter-clockwise positive in ENU), which walks at random; height moves
-    at constant velocity.  The motion is non-linear in ``omega``: :meth:`propagate` gives the
-    moved mean and the Jacobian that an extended Kalman filter's prediction uses.
+    at constant velocity.
 
     Parameters
     ----------
@@ -292,27 +279,12 @@ class UnknownRateTurn(NearlyConstantVelocity):
         return 2 * self.dim + 1
 
     def transition(self, dt: float) -> Array:
-        """Refuse: the motion depends on the state's turn rate (use :meth:`propagate`).
-
-        Raises
-        ------
-        TypeError
-            Always.
-        """
+        """Refuse: the motion depends on the state's turn rate (use :meth:`propagate`)."""
         raise TypeError("an unknown-rate turn has no transition matrix of its own; its "
                         "motion depends on the turn rate in the state (use propagate)")
 
     def noise(self, dt: float) -> Array:
-        """Give ``Q_k`` of a step ``dt`` (s): the parent's, then the rate's ``rate_noise**2 |dt|``.
-
-        Parameters
-        ----------
-        dt : float
-
-        Returns
-        -------
-        ndarray, shape (2 dim + 1, 2 dim + 1)
-        """
+        """Give ``Q_k`` of a step ``dt`` (s): the parent's, then ``rate_noise**2 |dt|``."""
         n = 2 * self.dim
         out = np.zeros((n + 1, n + 1))
         out[:n, :n] = process_noise(dt, self.q, self.dim, self.q_density)
@@ -320,19 +292,7 @@ class UnknownRateTurn(NearlyConstantVelocity):
         return out
 
     def propagate(self, mean: Array, dt: float) -> tuple[Array, Array]:
-        """Give the mean moved by ``dt`` (s, any sign) at its own turn rate, and the Jacobian.
-
-        Parameters
-        ----------
-        mean : ndarray, shape (2 dim + 1,)
-        dt : float
-
-        Returns
-        -------
-        mean, jacobian : ndarray
-            ``(2 dim + 1,)`` and ``(2 dim + 1, 2 dim + 1)``: the turn's exact motion over
-            ``dt`` (Li & Jilkov 2003, §V.B) and its derivative in every component.
-        """
+        """Give the mean moved exactly by ``dt`` (s) at its own turn rate, and the Jacobian."""
         d, w = self.dim, float(mean[-1])
         a, b, da, db = _turn_terms(w, dt)
         s, c = math.sin(w * dt), math.cos(w * dt)

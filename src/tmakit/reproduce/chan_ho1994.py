@@ -40,11 +40,6 @@ def scenario_at(sigma_m: float) -> Scenario:
 
 
 def run(runs: int = RUNS, seed: int = 1, progress: bool = True) -> SweepReproduction:
-    """Reproduce the position MSE against noise.
-
-    References
-    ----------
-    Chan & Ho (1994) (the two-stage estimator and its MSE against noise).
-    """
+    """Reproduce Chan & Ho (1994)'s position MSE against noise."""
     return reproduce("chan-ho1994", "Chan & Ho (1994): TDOA, 10 sensors", scenario_at,
                      SIGMA_M, runs, seed)

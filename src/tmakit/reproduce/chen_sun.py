@@ -72,12 +72,7 @@ def initial_state(meas: MeasurementSet, range_guess: float = RANGE_GUESS,
                   height_guess: float = HEIGHT_GUESS, velocity: Sequence[float] | None = None,
                   position_var: float = POSITION_VAR, velocity_var: float = VELOCITY_VAR
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-    """Give the initial state of Chen & Sun, §2.5 (its evident intent).
-
-    References
-    ----------
-    Chen & Sun, §2.5 (the initial guess and ``P_0``), §3.1 (``R_o``, ``z``, ``v_max``).
-    """
+    """Give the initial state of Chen & Sun, §2.5 (its evident intent; §3.1's R_o, z and v_max)."""
     if not range_guess > abs(height_guess):
         raise ValueError(f"range_guess ({range_guess} m) must exceed |height_guess| "
                          f"({height_guess} m)")

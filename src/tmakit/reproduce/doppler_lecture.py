@@ -17,12 +17,7 @@ EXTRA_RECEIVERS = {"rx2": (15_000.0, -5_000.0, 10.0), "rx3": (-12_000.0, 9_000.0
 
 
 def with_receivers(n: int) -> Scenario:
-    """Build the doppler-lecture scenario heard by ``n`` fixed receivers.
-
-    References
-    ----------
-    The Doppler-tracking lecture notes (the worked example's receiver).
-    """
+    """Build the lecture notes' worked example heard by ``n`` fixed receivers."""
     scn = copy.deepcopy(load_scenario("doppler-lecture"))
     base = scn.plans[0]
     for name, pos in list(EXTRA_RECEIVERS.items())[: n - 1]:
@@ -32,12 +27,7 @@ def with_receivers(n: int) -> Scenario:
 
 
 def run(runs: int = 0, seed: int = 1, progress: bool = True) -> Reproduction:
-    """Reproduce the lecture's problem: observability by receiver count, then one estimate.
-
-    References
-    ----------
-    Doppler-tracking lecture notes (the 7-parameter model and its rank deficiency).
-    """
+    """Reproduce the lecture's problem: observability by receiver count, then one estimate."""
     rep = Reproduction("doppler-lecture")
     rows: list[list[object]] = []
     for n in (1, 2, 3):

@@ -34,12 +34,7 @@ _KINDS = {"power": ("power",), "frequency": ("frequency",), "both": ("power", "f
 
 
 def crlb_tables() -> dict[tuple[float, float], dict[str, np.ndarray]]:
-    """Compute tmakit's values for the paper's Tables 1-3.
-
-    References
-    ----------
-    Gu et al. (2007), eqs. 17-18 and Tables 1-3.
-    """
+    """Compute tmakit's values for Tables 1-3 (Gu et al. (2007), eqs. 17-18)."""
     base = load_scenario("gu2007")
     out: dict[tuple[float, float], dict[str, np.ndarray]] = {}
     for (snr, sigma_f) in PAPER_TABLES:
@@ -52,12 +47,7 @@ def crlb_tables() -> dict[tuple[float, float], dict[str, np.ndarray]]:
 
 
 def run(runs: int = 200, seed: int = 1, progress: bool = True) -> Reproduction:
-    """Reproduce Tables 1-3 and, with ``runs > 0``, the Monte Carlo study of §5.
-
-    References
-    ----------
-    Gu et al. (2007), eqs. 17-18, Tables 1-3 and §5.
-    """
+    """Reproduce Tables 1-3 and, with ``runs > 0``, the Monte Carlo study of §5."""
     rep = Reproduction("gu2007")
     tables = crlb_tables()
     worst = 0.0

@@ -52,11 +52,6 @@ def scenario_at(sigma_m: float, source: dict[str, float] | None = None) -> Scena
 
 
 def run(runs: int = RUNS, seed: int = 1, progress: bool = True) -> SweepReproduction:
-    """Reproduce the position and velocity MSE against noise.
-
-    References
-    ----------
-    Ho & Xu (2004) (the closed form and its MSE figure).
-    """
+    """Reproduce Ho & Xu (2004)'s position and velocity MSE against noise."""
     return reproduce("ho-xu2004", "Ho & Xu (2004): TDOA + FDOA, 5 moving sensors",
                      scenario_at, SIGMA_M, runs, seed)

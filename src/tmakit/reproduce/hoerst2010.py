@@ -55,12 +55,7 @@ def reference_times(scn: Scenario, step: float = STEP) -> np.ndarray:
 
 
 def sequences(step: float = STEP, scn: Scenario | None = None) -> dict[str, CrbSequence]:
-    """Compute the bound sequence of every case of :data:`CASES`, every ``step`` seconds.
-
-    References
-    ----------
-    Hörst & Oispuu (2010), §4 (the CRB at a reference time, 90 % ellipses).
-    """
+    """Compute the bound sequence of every case of :data:`CASES`, every ``step`` s (§4)."""
     scn = scn or load_scenario("hoerst2010")
     refs = reference_times(scn, step)
     return {key: curvilinear_crb_sequence(scn, refs, kinds, known, level=LEVEL)
@@ -81,12 +76,7 @@ def _num(v: float) -> float | None:
 
 def run(runs: int = 0, seed: int = 1, progress: bool = True, step: float = STEP
         ) -> Hoerst2010Reproduction:
-    """Compute the bounds and check the paper's statements about Fig. 2.
-
-    References
-    ----------
-    Hörst & Oispuu (2010), §4 and Fig. 2.
-    """
+    """Compute the bounds and check the paper's statements about Fig. 2 (§4)."""
     scn = load_scenario("hoerst2010")
     seqs = sequences(step, scn)
     rep = Hoerst2010Reproduction("hoerst2010", scenario=scn, sequences=seqs)

@@ -95,12 +95,7 @@ def radar_plan(radar: str = "derived") -> SensorPlan:
 
 def cases(radar: str = "derived", particles: int = 2000, steps: int | None = None,
           tracker: str = "pf", setup: Hurtado2008Setup = SETUP) -> list[LoopCase]:
-    """Build the four cases of the reproduction.
-
-    References
-    ----------
-    Hurtado & Nehorai (2008), §5, Examples 1 and 2.
-    """
+    """Build the four cases of the reproduction (Hurtado & Nehorai (2008), §5, Examples 1 and 2)."""
     plan = radar_plan(radar)
     cfg = HURTADO_NEHORAI_2008
     loop = LoopSetup(
@@ -139,12 +134,7 @@ def _turns(study: ClosedLoopStudy, case: str, start: int) -> float:
 
 
 def claims(study: ClosedLoopStudy, setup: Hurtado2008Setup = SETUP) -> list[list[object]]:
-    """Check the paper's qualitative claims on the runs.
-
-    References
-    ----------
-    Hurtado & Nehorai (2008), section 5, Examples 1 and 2.
-    """
+    """Check the paper's qualitative claims on the runs (§5, Examples 1 and 2)."""
     d = len(study.times("adaptive"))
     late = (2 * d) // 3  # the last third of the run: the circling phase
     mean_range = {c: study.stack(c, "range_m").mean(axis=0) for c in study.cases}
@@ -179,12 +169,7 @@ def run(runs: int = 100, seed: int = 1, progress: bool = True, *, particles: int
         steps: int | None = None, radar: str = "derived", tracker: str = "pf",
         chunk: int | None = None, dask: Any = None,
         on_chunk: Callable[[LoopChunk], None] | None = None) -> Hurtado2008Reproduction:
-    """Run the four cases and check the paper's claims.
-
-    References
-    ----------
-    Hurtado & Nehorai (2008), section 5, Figs. 1-3.
-    """
+    """Run the four cases and check the paper's claims (§5, Figs. 1-3)."""
     if runs < 1:
         raise ValueError(f"runs must be >= 1 for this reproduction, got {runs}")
     if steps is not None and steps < 3:
@@ -252,12 +237,7 @@ def _row(case: str, s: dict[str, Any]) -> list[object]:
 
 
 def plot(rep: Hurtado2008Reproduction, path: str | Path) -> Path:
-    """Draw example paths, RMSE against the bound, and the range to the target over time.
-
-    References
-    ----------
-    Hurtado & Nehorai (2008), §5, Figs. 1-3.
-    """
+    """Draw example paths, RMSE against the bound and the range to the target (§5, Figs. 1-3)."""
     from matplotlib.figure import Figure
 
     study = rep.study
