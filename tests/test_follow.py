@@ -167,3 +167,18 @@ def test_follow_a_growing_csv_file(tmp_path):
     second = w.next_update()
     assert w.proc.wait(timeout=HANG) == 0
     assert _rows(first) == 300 and _rows(second) == len(body) - 1
+
+
+def test_a_bad_row_already_written_stops_the_watch_naming_the_users_file(contact, tmp_path):
+    """Lines already written cannot change: the watch says so and stops, naming the file given
+    (not its snapshot), where waiting for more lines would wait for ever."""
+    grow = tmp_path / "grow.rep"
+    bad = contact[:300]
+    fields = bad[250].split()
+    bad[250] = " ".join([*fields[:2], "xx", *fields[3:]]) + "\n"
+    grow.write_text("".join(bad))
+    w = Watch(str(grow), "--interval", "0.05")
+    assert w.proc.wait(timeout=HANG) == 2
+    said = w.proc.stderr.read()
+    assert f"{grow}:" in said and "line 251" in said and "cannot change" in said
+    assert "tma-follow-" not in said and "waiting" not in said

@@ -10,6 +10,7 @@ import functools
 import inspect
 import math
 import os
+import re
 import typing
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
@@ -273,9 +274,19 @@ def reader_options(format: str | None, ownship: str | None, contact: str | None,
             "frequency_sigma": frequency_sigma, "kinds": kinds, "ranges": ranges}
 
 
+class FaultInWrittenLines(typer.Exit):
+    """A followed file's complete lines break the file contract: more lines cannot mend it."""
+
+
 def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | None = None,
-                 notes: bool = True, **options: Any) -> Any:
-    """Read a measurement file (or several read as one), errors as ``error: ...``."""
+                 notes: bool = True, shown_as: dict[Path, Path] | None = None,
+                 **options: Any) -> Any:
+    """Read a measurement file (or several read as one), errors as ``error: ...``.
+
+    ``shown_as`` maps the paths read to the names the user gave (``tma track --follow`` reads
+    snapshots of the files): errors name the user's file, and one that names a row or line
+    raises :class:`FaultInWrittenLines`.
+    """
     from ..io.errors import reader_notes
     from ..io.measurement_files import MeasurementFileError, read_measurements
 
@@ -297,7 +308,16 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
     except (MeasurementFileError, ValueError) as e:
         from ..io.checker import ORIGIN_HINT
 
-        raise fail(str(e).replace(ORIGIN_HINT, "--origin LAT,LON,ALT")) from None
+        message = str(e).replace(ORIGIN_HINT, "--origin LAT,LON,ALT")
+        if shown_as is None:
+            raise fail(message) from None
+        for read, given in shown_as.items():
+            message = message.replace(str(read), str(given))
+        if any(re.match(r"(row|line) \d+", p) for p in getattr(e, "problems", [])):
+            fail(message + "\n(the lines already written cannot change: correct the file and "
+                 "follow it again)")
+            raise FaultInWrittenLines(2) from None
+        raise fail(message) from None
     for note in reader_notes(meas.metadata, pop=True):
         if notes:
             err.print(note, markup=False, soft_wrap=True)

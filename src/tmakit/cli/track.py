@@ -17,6 +17,7 @@ import typer
 
 from .common import (
     DriftOption,
+    FaultInWrittenLines,
     FilesArgument,
     ForceOption,
     FreeExponentOption,
@@ -207,12 +208,13 @@ def start_keywords(prior: tuple[str | None, str | None, str | None, float | None
 
 def track_files(paths: list[Path], reading: tuple[Any, int | None, dict[str, Any]],
                 q: tuple[str, str], filter_name: str, smooth: tuple[bool, int | None, bool],
-                keywords: dict[str, Any], notes: bool = True) -> tuple[Any, Any, Any]:
+                keywords: dict[str, Any], notes: bool = True,
+                shown_as: dict[Path, Path] | None = None) -> tuple[Any, Any, Any]:
     """Read the files and track the emitter: the command's work on the data."""
     from .. import tracking
 
     origin, dim, options = reading
-    meas = read_or_fail(paths, origin, dim=dim, notes=notes, **options)
+    meas = read_or_fail(paths, origin, dim=dim, notes=notes, shown_as=shown_as, **options)
     try:
         d = tracking.filter_dim(meas, dim)
         meas = sides_for_filter(meas, d)
@@ -261,10 +263,17 @@ class Watch:
         if self.page is not None:
             write_track_page(meas, tr, self.page, force, self.options, self.name, self.say)
 
-    def __call__(self, paths: list[Path]) -> bool:
-        """Make one update; False (and why, on standard error) when the data give none yet."""
+    def __call__(self, shown_as: dict[Path, Path]) -> bool:
+        """Make one update from the snapshots (keys) of the files followed (values).
+
+        False (and why, on standard error) when the data give none yet; a fault in the lines
+        already written stops the watch.
+        """
         try:
-            meas, tr, truth = self.tracked(paths, notes=self.count == 0)
+            meas, tr, truth = self.tracked(list(shown_as), notes=self.count == 0,
+                                           shown_as=shown_as)
+        except FaultInWrittenLines:
+            raise
         except typer.Exit as e:
             if e.exit_code != 2:
                 raise
@@ -811,9 +820,10 @@ class GrowingFiles:
             self.sources.append(_Source(path, folder / name))
 
     @property
-    def snapshots(self) -> list[Path]:
-        """The snapshot files, in the order of the files given."""
-        return [s.snapshot for s in self.sources]
+    def snapshots(self) -> dict[Path, Path]:
+        """The snapshot files, in the order of the files given, and the names given."""
+        return {s.snapshot: Path("standard input") if str(s.path) == "-" else s.path
+                for s in self.sources}
 
     @property
     def ended(self) -> bool:
@@ -825,7 +835,7 @@ class GrowingFiles:
         return any([s.poll() for s in self.sources])  # (every source polled)
 
 
-def watch(paths: list[Path], fmt: str | None, update: Callable[[list[Path]], bool],
+def watch(paths: list[Path], fmt: str | None, update: Callable[[dict[Path, Path]], bool],
            interval: float, max_updates: int | None, say: Any) -> None:
     """Run ``update`` on the snapshots each time the files grow, until told to stop."""
     from .guard import Terminated
