@@ -9,7 +9,14 @@ import pytest
 
 from tmakit.data import MeasurementSet
 from tmakit.results.context import sensor_position
-from tmakit.results.own_legs import LEG_SPEED_CHANGE, LEG_TURN_DEG, one_leg, straight_legs
+from tmakit.results.own_legs import (
+    HOLDS_COURSE_SPEED,
+    LEG_SPEED_CHANGE,
+    LEG_TURN_DEG,
+    detect_legs,
+    one_leg,
+    straight_legs,
+)
 
 
 def plain_legs(time, state):
@@ -21,7 +28,7 @@ def plain_legs(time, state):
     for k in range(1, len(time) + 1):
         if k < len(time):
             turn = abs((course[k] - course[first] + 180.0) % 360.0 - 180.0)
-            moving = max(speed[k], speed[first]) >= 0.05
+            moving = min(speed[k], speed[first]) >= HOLDS_COURSE_SPEED
             change = abs(speed[k] - speed[first]) > max(0.5, LEG_SPEED_CHANGE * speed[first])
             if not ((moving and turn > LEG_TURN_DEG) or change):
                 continue
@@ -41,7 +48,7 @@ def path(kind, n, rng):
         course = np.radians(np.cumsum(rng.normal(0.0, 1.0, n)))
         speed = 5.0 + np.cumsum(rng.normal(0.0, 0.05, n))
         return np.column_stack([speed * np.sin(course), speed * np.cos(course)])
-    return rng.normal(0.0, 0.03, (n, 2))  # below 0.05 m/s: turns do not count
+    return rng.normal(0.0, 0.15, (n, 2))  # GPS noise about a still sensor: no turn counts
 
 
 @pytest.mark.parametrize("kind", ["noise", "legs", "drift", "still"])
@@ -54,6 +61,23 @@ def test_legs_are_the_plain_rule_read_row_by_row(kind):
         got = [(g.start, g.stop, g.course_deg, g.speed) for g in straight_legs(time, state)]
         assert got == plain_legs(time, state)
         assert one_leg(state) == (len(got) == 1)
+
+
+def test_a_still_receivers_navigation_noise_is_no_own_ship_turn():
+    """A receiver at rest, its GPS fixes and velocities with noise, has one stationary leg."""
+    rng = np.random.default_rng(7)
+    time = np.arange(600.0)
+    state = np.zeros((600, 6))
+    state[:, :2] = rng.normal(0.0, 2.0, (600, 2))
+    state[:, 3:5] = rng.normal(0.0, 0.15, (600, 2))
+    found = detect_legs(time, state)
+    assert len(found.legs) == 1 and found.turns == []
+    assert found.legs[0].words() == "t = 0 .. 599 s, stationary"
+    assert [leg.words() for leg in straight_legs(time, state)] == ["t = 0 .. 599 s, stationary"]
+    state[300:, 3] += 4.0  # then it moves off east at 4 m/s, turning north at 450 s
+    state[450:, 3:5] = state[450:, 4:2:-1]
+    found = detect_legs(time, state)
+    assert len(found.turns) == 1 and abs(abs(found.turns[0].change_deg) - 90.0) < 10.0
 
 
 def test_one_leg_decided_by_the_first_rows_of_a_manoeuvring_path():

@@ -21,6 +21,10 @@ LEG_TURN_DEG = 5.0
 LEG_SPEED_CHANGE = 0.1
 """A relative speed change beyond which a new leg starts (with at least 0.5 m/s)."""
 
+HOLDS_COURSE_SPEED = 0.5
+"""Below this speed (m/s) a sensor holds no course: the heading of a navigation velocity that
+small is the receiver's noise (a GPS velocity has 0.05-0.3 m/s of it), so it makes no turn."""
+
 
 @dataclass(frozen=True)
 class Leg:
@@ -33,7 +37,7 @@ class Leg:
 
     def words(self) -> str:
         """Return the leg in words."""
-        if self.speed < 0.05:
+        if self.speed < HOLDS_COURSE_SPEED:
             return f"t = {self.start:g} .. {self.stop:g} s, stationary"
         return (f"t = {self.start:g} .. {self.stop:g} s, course {self.course_deg:.0f}° at "
                 f"{self.speed:.3g} m/s")
@@ -70,7 +74,7 @@ def _leg_end(v: NDArray[np.float64], first: int) -> int:
         hi = min(n, lo + width)
         c, s = _course_speed(v[lo:hi])
         turn = np.abs((c - c0 + 180.0) % 360.0 - 180.0)
-        moving = np.maximum(s, s0) >= 0.05
+        moving = np.minimum(s, s0) >= HOLDS_COURSE_SPEED
         change = np.abs(s - s0) > max(0.5, LEG_SPEED_CHANGE * s0)
         new = (moving & (turn > LEG_TURN_DEG)) | change
         if new.any():
@@ -89,7 +93,7 @@ def range_words(meas: MeasurementSet, sensor: str, manoeuvring_model: bool = Fal
     """Say why range is not observable from a sensor's angles, and which manoeuvre would help."""
     legs = sensor_legs(meas, sensor)
     spans = "; ".join(leg.words() for leg in legs)
-    if all(leg.speed < 0.05 for leg in legs):
+    if all(leg.speed < HOLDS_COURSE_SPEED for leg in legs):
         how = (f"sensor {sensor} did not move during these bearings ({spans}), so the "
                "bearings fit the target at any range; only a moving sensor that changes course "
                "can give range")
@@ -196,14 +200,20 @@ def heading_rate(time: NDArray[np.float64], heading: NDArray[np.float64],
     if n < 2:
         return np.zeros(n)
     h = np.unwrap(np.asarray(heading, dtype=float))
-    idx = np.arange(n)
-    lo = np.minimum(np.searchsorted(t, t - window_s / 2, "left"), np.maximum(idx - 1, 0))
-    hi = np.maximum(np.searchsorted(t, t + window_s / 2, "right"), np.minimum(idx + 2, n))
+    lo, hi = _windows(t, window_s)
     tc = t - t.mean()
     sums = [np.concatenate([[0.0], np.cumsum(v)]) for v in (np.ones(n), tc, h, tc * tc, tc * h)]
     s0, st, sh, stt, sth = (c[hi] - c[lo] for c in sums)
     rate: NDArray[np.float64] = (sth - st * sh / s0) / np.maximum(stt - st * st / s0, 1e-300)
     return rate
+
+
+def _windows(t: NDArray[np.float64], window_s: float) -> tuple[NDArray[np.intp], ...]:
+    """Each fix's window: rows ``lo[k]:hi[k]`` within ``window_s / 2`` (at least 3 rows)."""
+    n, idx = t.size, np.arange(t.size)
+    lo = np.minimum(np.searchsorted(t, t - window_s / 2, "left"), np.maximum(idx - 1, 0))
+    hi = np.maximum(np.searchsorted(t, t + window_s / 2, "right"), np.minimum(idx + 2, n))
+    return lo, hi
 
 
 def _turn_knots(t: NDArray[np.float64], h: NDArray[np.float64], before: float,
@@ -236,9 +246,14 @@ def detect_legs(time: NDArray[np.float64], state: NDArray[np.float64], *,
     t, first = t[kept], order[kept]
     v = np.asarray(state, dtype=float)[first, 3:5]
     speed = np.hypot(v[:, 0], v[:, 1])
-    heading = np.unwrap(np.arctan2(v[:, 0], v[:, 1]))
+    lo, hi = _windows(t, window_s)  # the speed of the window's mean velocity: noise averages out
+    sums = np.concatenate([np.zeros((1, 2)), np.cumsum(v, axis=0)])
+    mean_v = (sums[hi] - sums[lo]) / (hi - lo)[:, None]
+    steady = np.minimum(np.hypot(mean_v[:, 0], mean_v[:, 1]), speed) >= HOLDS_COURSE_SPEED
+    held = np.maximum.accumulate(np.where(steady, np.arange(t.size), -1))  # a still fix keeps
+    held[held < 0] = np.argmax(steady)  # the last steady fix's heading: its own is noise
+    heading = np.unwrap(np.arctan2(v[held, 0], v[held, 1]))
     turning = np.abs(heading_rate(t, heading, window_s)) > np.deg2rad(turn_rate_deg_s)
-    turning &= speed > 0.05
     jump = np.abs(np.diff(heading)) >= np.deg2rad(min_turn_deg)  # a turn between two fixes
     bounds = _straight_runs(turning, jump)
     legs, turns = _merge_small_turns(t, heading, speed, bounds, np.deg2rad(min_turn_deg))
