@@ -40,10 +40,15 @@ def spd_inverse(information: Array) -> Array | None:
     return out.reshape(info.shape)
 
 
-def supports_planar(plan: SensorPlan, sensor_states: Array) -> bool:
-    """Tell whether the closed form applies: 2-D, planar kinds, every sensor at ``z = 0``."""
+def planar_plan(plan: SensorPlan) -> bool:
+    """Tell whether the closed form applies to the plan: 2-D, planar kinds, no options."""
     return (plan.dim == 2 and set(plan.kinds) <= PLANAR_KINDS and not plan.options
-            and not plan.nuisance and not np.any(sensor_states[..., 2]))
+            and not plan.nuisance)
+
+
+def supports_planar(plan: SensorPlan, sensor_states: Array) -> bool:
+    """Tell whether the closed form applies: a planar plan, every sensor at ``z = 0``."""
+    return planar_plan(plan) and not np.any(sensor_states[..., 2])
 
 
 def compiled_basis(plan: SensorPlan) -> Packed:

@@ -24,7 +24,7 @@ from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
 from . import compiled
 from .belief import Belief, cubature_points
 from .candidates import GammaForm, check_gamma, step_information
-from .compiled import PLANAR_KINDS, compiled_basis
+from .compiled import compiled_basis, planar_plan
 from .constraints import Constraint, Violation
 from .criteria import Criterion, WeightedTrace, bound_covariance, evaluate
 from .measurement_plan import SensorPlan
@@ -563,8 +563,7 @@ def _setup(planner: Planner) -> tuple[Any, ...] | None:
     """Return the decision's constant arguments for ``planner`` (None: it does not apply)."""
     plan, kin = planner.plan, planner.kinematics
     times = plan.measurement_times(planner.interval)
-    if (kin.on_limit != "clip" or plan.dim != 2 or not set(plan.kinds) <= PLANAR_KINDS
-            or plan.options or plan.nuisance or times.size != 1
+    if (kin.on_limit != "clip" or not planar_plan(plan) or times.size != 1
             or times[0] != planner.interval or len(planner.actions.shape) != 1):
         return None
     names, coef, dgf = compiled_basis(plan)
