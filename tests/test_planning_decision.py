@@ -17,7 +17,6 @@ from tmakit.planning import (
     SensorPlan,
     WeightedTrace,
 )
-from tmakit.planning import compiled
 from tmakit.planning import planner as decision
 from tmakit.sensors import Actions, PlatformKinematics, PlatformState, platform_configuration
 
@@ -47,22 +46,11 @@ def _same_step(fast, slow):
                                atol=1e-9)
 
 
-def _fly(kin, start, actions, interval):
-    """The compiled kernel's step of every action from one start (as the decision flies)."""
-    packed, own_climb = decision.pack_actions(actions)
-    row = np.array([[*start.position.ravel(), *start.heading.ravel(), *start.speed.ravel(),
-                     *start.climb_rate.ravel()]])
-    fields, flags = np.empty((20, actions.shape[0])), np.empty((4, actions.shape[0]), bool)
-    compiled.fly_rows(row, packed, own_climb, decision.pack_limits(kin), float(interval), fields,
-                      flags)
-    return decision.step_from_rows(fields, flags, interval, start.time)
-
-
 def test_compiled_kinematics_equal_the_step_of_the_paper_platform():
     config = platform_configuration("hurtado_nehorai_2008")
     for speed in (50.0, 120.0, 200.0):   # the floor, free, the ceiling: speed range acts
         start = PlatformState(position=(100.0, -30.0), heading=3.1, speed=speed, time=4.0)
-        fast = _fly(config.kinematics, start, config.actions, config.interval)
+        fast = decision.fly(config.kinematics, start, config.actions, config.interval)
         slow = config.kinematics.step(start, config.actions, config.interval)
         _same_step(fast, slow)
         assert fast.speed_limited.any() == (speed in (50.0, 200.0))
@@ -80,30 +68,27 @@ def test_compiled_kinematics_3d_with_every_limit_hit():
                            heading=rng.uniform(-math.pi, math.pi, 6),
                            speed=[20.0, 25.0, 40.0, 60.0, 59.0, 0.0],
                            climb_rate=rng.uniform(-3, 3, 6), time=12.5)
+    start = PlatformState.trusted(starts.position[:, None, :], starts.heading[:, None],
+                                  starts.speed[:, None], starts.climb_rate[:, None], 12.5)
     for interval in (0.5, 10.0, 60.0):   # straight-ish steps and long turns (closed form)
-        slow = [kin.step(PlatformState.trusted(starts.position[i:i + 1], starts.heading[i:i + 1],
-                                               starts.speed[i:i + 1],
-                                               starts.climb_rate[i:i + 1], 12.5),
-                         actions, interval) for i in range(6)]
-        for i in range(6):
-            _same_step(_fly(kin, starts[i], actions, interval), slow[i])
+        fast = decision.fly(kin, starts, actions, interval)
+        slow = kin.step(start, actions, interval)
+        _same_step(fast, slow)
         every = ("speed_limited", "turn_limited", "acceleration_limited", "climb_limited")
         for name in every if interval <= 10 else ():   # 60 s: the limits are not reached
-            hit = np.concatenate([getattr(s, name) for s in slow])
-            assert hit.any() and not hit.all(), (name, interval)
+            assert getattr(slow, name).any() and not getattr(slow, name).all(), (name,
+                                                                                 interval)
     # the climb rate of the platform kept when the actions give none, altitude band clipped
     keep = Actions(np.radians([0.0, 10.0]), speed_factor=[1.0, 1.2])
     high = PlatformState(position=(0.0, 0.0, 299.0), heading=0.0, speed=30.0, climb_rate=4.0)
-    _same_step(_fly(kin, high, keep, 1.0), kin.step(high, keep, 1.0))
-    assert _fly(kin, high, keep, 1.0).climb_limited.all()
+    _same_step(decision.fly(kin, high, keep, 1.0), kin.step(high, keep, 1.0))
+    assert decision.fly(kin, high, keep, 1.0).climb_limited.all()
 
 
 def test_raise_on_limit_is_left_to_the_platform_step():
     kin = PlatformKinematics(max_speed=10.0, on_limit="raise")
     start = PlatformState(position=(0.0, 0.0), heading=0.0, speed=10.0)
-    planner = Planner(kin, Actions([0.0], speed_factor=[1.5]), 1.0, SensorPlan(["bearing"], 0.01))
-    belief = _belief(np.random.default_rng(1), 1)
-    assert decision.decide(planner, {}, start, belief) is None
+    assert decision.fly(kin, start, Actions([0.0], speed_factor=[1.5]), 1.0) is None
 
 
 def _belief(rng, n, q=0.1):
@@ -205,8 +190,9 @@ def test_the_recommendation_of_the_compiled_decision_reads_as_the_general_one():
     planner = Planner(config.kinematics, config.actions, config.interval,
                       SensorPlan(["bearing", "range"], [0.02, 30.0]))
     fast, slow = _both(planner, lambda: planner.recommend(start, belief))
+    assert isinstance(fast.steps, decision.LazyStep)
     again = pickle.loads(pickle.dumps(fast.steps))
-    _same_step(again, slow.steps)
+    _same_step(again, slow.steps)                     # before any field was read
     _same_step(fast.step, slow.step)                  # one candidate: Step.__getitem__
     assert "Step" in repr(fast.steps) and fast.steps.shape == (15,)
     np.testing.assert_array_equal(fast.feasible, slow.feasible)

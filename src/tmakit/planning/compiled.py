@@ -138,6 +138,15 @@ def _cloud_sums(names: list[str], cols: Array, weights: Array, sensors: Array) -
     return full[rows]
 
 
+def fly(starts: Array, actions: Array, own_climb: bool, limits: Array, interval: float
+        ) -> tuple[Array, Array]:
+    """Fly every action from every start for one step (the rows of :func:`fly_rows`)."""
+    size = starts.shape[0] * actions.shape[1]
+    fields, flags = np.empty((20, size)), np.empty((4, size), dtype=np.bool_)
+    fly_rows(starts, actions, own_climb, limits, float(interval), fields, flags)
+    return fields, flags
+
+
 _sums = numba.njit(cache=True, nogil=True, error_model="numpy",
                    fastmath={"reassoc", "contract", "nsz"})
 _exact = numba.njit(cache=True, nogil=True, error_model="numpy")

@@ -8,6 +8,7 @@ compiled call, or returns None and the planner takes its general path.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal, cast
@@ -171,11 +172,13 @@ class Planner:
 
     def _expand(self, platform: PlatformState, information: Array, belief: Belief,
                 gamma: GammaForm) -> tuple[Step, Array, list[Violation]]:
-        """Fly every action from each state (batch ``B``) ``depth`` steps ahead: (*B, A)."""
-        start = PlatformState.trusted(
-            platform.position[..., None, :], platform.heading[..., None],
-            platform.speed[..., None], platform.climb_rate[..., None], platform.time)
-        steps = self.kinematics.step(start, self.actions, self.interval)
+        """Fly every action from each state (batch ``B``) for one step: (*B, A)."""
+        steps = fly(self.kinematics, platform, self.actions, self.interval)
+        if steps is None:   # limits that raise: the NumPy step
+            start = PlatformState.trusted(
+                platform.position[..., None, :], platform.heading[..., None],
+                platform.speed[..., None], platform.climb_rate[..., None], platform.time)
+            steps = self.kinematics.step(start, self.actions, self.interval)
         t0 = platform.time
         offsets = self.plan.measurement_times(self.interval)
         if offsets.size == 1 and offsets[0] == self.interval:   # one pulse, at the end
@@ -539,12 +542,63 @@ def pack_limits(kinematics: PlatformKinematics) -> Array:
                      k.max_climb_rate, k.min_altitude, k.max_altitude], dtype=float)
 
 
-def step_from_rows(fields: Array, flags: Array, interval: float, time: float) -> Step:
-    """Return the :class:`Step` (A,) whose fields are views of the compiled kernel's output."""
-    start = PlatformState.view(fields[14:17].T, fields[17], fields[18], fields[19], time)
-    end = PlatformState.view(fields[0:3].T, fields[3], fields[4], fields[5], time + interval)
+def pack_starts(platform: PlatformState) -> Array:
+    """Return the start states by rows (M, 6): ``[x, y, z, heading, speed, climb rate]``."""
+    out = np.empty((platform.speed.size, 6))
+    out[:, :3] = platform.position.reshape(-1, 3)
+    out[:, 3] = platform.heading.ravel()
+    out[:, 4] = platform.speed.ravel()
+    out[:, 5] = platform.climb_rate.ravel()
+    return out
+
+
+def step_from_rows(fields: Array, flags: Array, shape: tuple[int, ...], interval: float,
+                   time: float) -> Step:
+    """Return the :class:`Step` whose fields are views of the compiled kernel's output."""
+    if len(shape) != 1:
+        fields = fields.reshape(fields.shape[0], *shape)
+        flags = flags.reshape(4, *shape)
+    axes = (*range(1, len(shape) + 1), 0)   # (3, *shape) -> (*shape, 3)
+    start = PlatformState.view(fields[14:17].transpose(axes), fields[17], fields[18],
+                               fields[19], time)
+    end = PlatformState.view(fields[0:3].transpose(axes), fields[3], fields[4], fields[5],
+                             time + interval)
     return Step(start, end, fields[6], fields[7], fields[5], float(interval), flags[0],
                 flags[1], flags[2], flags[3])
+
+
+class LazyStep(Step):
+    """A :class:`Step` whose fields are made from the compiled kernel's output when first read."""
+
+    @classmethod
+    def of(cls, fields: Array, flags: Array, shape: tuple[int, ...], interval: float,
+           time: float) -> LazyStep:
+        """Return the lazy step over the kernel's output (arguments of :func:`step_from_rows`)."""
+        step = object.__new__(cls)
+        object.__setattr__(step, "_source", (fields, flags, shape, interval, time))
+        return step
+
+    def __getattr__(self, name: str) -> Any:
+        """Make every field on the first read of one (only called for missing attributes)."""
+        if name.startswith("__") or name == "_source":
+            raise AttributeError(name)
+        made = step_from_rows(*object.__getattribute__(self, "_source"))
+        for f in dataclasses.fields(Step):
+            object.__setattr__(self, f.name, getattr(made, f.name))
+        return object.__getattribute__(self, name)
+
+
+def fly(kinematics: PlatformKinematics, platform: PlatformState, actions: Actions,
+        interval: float) -> Step | None:
+    """Fly every action from every state of ``platform`` for one step, compiled."""
+    if (kinematics.on_limit != "clip"
+            or len(actions.shape) != 1 or not interval > 0):
+        return None
+    packed, own_climb = pack_actions(actions)
+    rows, flags = compiled.fly(pack_starts(platform), packed, own_climb,
+                               pack_limits(kinematics), interval)
+    return step_from_rows(rows, flags, (*platform.shape, actions.shape[0]), interval,
+                          platform.time)
 
 
 @dataclass(frozen=True, eq=False)
@@ -627,5 +681,5 @@ def decide(planner: Planner, cache: dict[str, Any], platform: PlatformState,
     best = found if trace else None
     if not trace:
         cost = evaluate(planner.criterion, info, cov)
-    steps = step_from_rows(rows, flags, interval, platform.time)
+    steps = LazyStep.of(rows, flags, (n_act,), interval, platform.time)
     return Decision(steps, info, cost, bound, best)
