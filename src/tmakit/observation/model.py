@@ -55,6 +55,25 @@ class ObservationModel:
         #: The affine row map and the one kind's model of the planar path, or None.
         self.planar_kind: tuple[AffineRows, MeasurementModel] | None = planar_kind(self)
 
+    def _set_rows(self, meas: MeasurementSet, slices: dict[str, slice],
+                  order: NDArray[np.intp] | None) -> None:
+        """Hold the set's rows, grouped by kind, and their observation core."""
+        self.meas = meas
+        #: Each kind's rows, a contiguous slice of the grouped order.
+        self.slices = slices
+        #: Grouped order is the set's own (one kind, or kinds already in blocks).
+        self.in_set_order = order is None
+        self._order: NDArray[np.intp] | None = order  # None: the identity, made when first used
+        self._inverse: NDArray[np.intp] | None = None if order is None else np.argsort(order)
+        self.grouped: MeasurementSet = meas if order is None else meas.take(order)
+        self._time: Array = self.grouped.time
+        self._sensor: Array = self.grouped.sensor_state
+        self.values, self.sigmas = meas.value_si, meas.sigma_si
+        self.values_grouped = self._to_grouped(self.values)
+        self.sigmas_grouped = self._to_grouped(self.sigmas)
+        self._set_row_model()
+        self.angle_mask = self._to_set_order(self.angle_mask_grouped)
+
     @property
     def order(self) -> NDArray[np.intp]:
         """The set's rows in grouped order: grouped row ``j`` is the set's row ``order[j]``."""
@@ -72,24 +91,6 @@ class ObservationModel:
         """Each kind's rows of the set, ascending (its slice of :attr:`order`), in kind order."""
         order = self.order
         return {k: order[sl] for k, sl in self.slices.items()}
-
-    def _set_rows(self, meas: MeasurementSet, slices: dict[str, slice],
-                  order: NDArray[np.intp] | None) -> None:
-        """Hold the set's rows, grouped by kind, and their observation core."""
-        self.meas = meas
-        #: Each kind's rows, a contiguous slice of the grouped order.
-        self.slices = slices
-        #: Grouped order is the set's own (one kind, or kinds already in blocks).
-        self.in_set_order = order is None
-        self._order = order  # None: the identity, made on first use (see order)
-        self._inverse = None if order is None else np.argsort(order)
-        self.grouped = meas if order is None else meas.take(order)
-        self._time, self._sensor = self.grouped.time, self.grouped.sensor_state
-        self.values, self.sigmas = meas.value_si, meas.sigma_si
-        self.values_grouped = self._to_grouped(self.values)
-        self.sigmas_grouped = self._to_grouped(self.sigmas)
-        self._set_row_model()
-        self.angle_mask = self._to_set_order(self.angle_mask_grouped)
 
     def _set_row_model(self) -> None:
         """Build the observation core of the grouped rows (per-kind predictions, designs)."""
