@@ -21,11 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.arrays import Array
 from ..measurements import KINDS
 
 __all__ = ["HURTADO_NEHORAI_2008_RADAR", "RADAR_KINDS", "RadarModel"]
-
-Array = NDArray[np.float64]
 
 
 def relative_states(target_states: ArrayLike, sensor_states: ArrayLike) -> tuple[Array, int]:
