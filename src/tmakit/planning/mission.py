@@ -22,7 +22,7 @@ from .candidates import GammaForm, check_gamma, step_information
 from .constraints import Constraint, Violation
 from .criteria import Criterion, WeightedTrace
 from .measurement_plan import SensorPlan
-from .planner import penalties, position_bound, repeat_batch, step_violations
+from .planner import penalties, position_bound, step_violations
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,6 +82,13 @@ class Rollout:
         factor, _ = penalties(self.violations, self.information.shape[0])
         cost = criterion(self.information)
         return (cost if self.weights is None else cost @ self.weights) * factor, self.hard
+
+
+def repeat_batch(state: PlatformState, g: int) -> PlatformState:
+    """Return each of a batch of states (or one state) repeated ``g`` times."""
+    return PlatformState(np.repeat(state.position.reshape(-1, 3), g, 0),
+                         np.repeat(state.heading, g), np.repeat(state.speed, g),
+                         np.repeat(state.climb_rate, g), state.time)
 
 
 _TOL = 1e-9

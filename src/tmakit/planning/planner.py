@@ -382,7 +382,7 @@ def search(planner: Planner, ends: PlatformState, turn_rate: Array, information:
         bad = (bad[:, None] + bad_new.reshape(m, a)).ravel()
         paths = np.concatenate([np.repeat(paths, a, axis=0),
                                 np.tile(np.arange(a), m)[:, None]], axis=1)
-        ends, turn_rate = repeat_batch(steps.end, 1), steps.turn_rate.ravel()
+        ends, turn_rate = _flat(steps.end), steps.turn_rate.ravel()
         information = info.reshape(m * a, *info.shape[-2:])
     leaf = _score(planner, ends, turn_rate, information, factor, belief)
     cost = np.full(a, np.inf)
@@ -393,11 +393,10 @@ def search(planner: Planner, ends: PlatformState, turn_rate: Array, information:
     return cost, worst
 
 
-def repeat_batch(state: PlatformState, g: int) -> PlatformState:
-    """Return each of a batch of states (or one state) repeated ``g`` times, on one axis."""
-    return PlatformState(np.repeat(state.position.reshape(-1, 3), g, 0),
-                         np.repeat(state.heading, g), np.repeat(state.speed, g),
-                         np.repeat(state.climb_rate, g), state.time)
+def _flat(state: PlatformState) -> PlatformState:
+    """Flatten a batch of platform states to one axis."""
+    return PlatformState.trusted(state.position.reshape(-1, 3), state.heading.ravel(),
+                                 state.speed.ravel(), state.climb_rate.ravel(), state.time)
 
 
 def step_violations(constraints: Sequence[Constraint], steps: Step, belief: Belief,
