@@ -8,7 +8,8 @@ median CPU time of the workload itself (``time.process_time`` around it, so impo
 processes on the machine do not count; BLAS held to one thread) with its interquartile range,
 and head / base.
 The workloads use only APIs both trees have (``tmakit.estimate``, ``tmakit.track``,
-``tmakit.bounds.crlb``, ``tmakit.montecarlo.monte_carlo``, ``tmakit.read_measurements``).
+``tmakit.bounds.crlb``, ``tmakit.montecarlo.monte_carlo``, ``tmakit.read_measurements``,
+``tmakit.planning.Planner``).
 """
 
 from __future__ import annotations
@@ -27,6 +28,38 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 
 WORKLOADS = {
+    "planner decision hurtado2008 x2000 (compiled)": """
+import numpy as np
+from tmakit.bounds.pcrb_recursion import PosteriorInformation
+from tmakit.motion.dynamics import NearlyConstantVelocity
+from tmakit.planning import Belief, Planner, SensorPlan
+from tmakit.sensors import PlatformState, platform_configuration
+cfg = platform_configuration("hurtado_nehorai_2008"); TARGET = np.array([-2e3, 15e3, 25.0, 0.0])
+post = PosteriorInformation.from_prior(np.diag([500.0**2, 500.0**2, 100.0, 100.0]),
+                                       NearlyConstantVelocity(dim=2, q=0.1), time=0.0)
+START, bel = PlatformState((0.0, 0.0), 0.0, 50.0), Belief(post, TARGET)
+base = dict(kinematics=cfg.kinematics, actions=cfg.actions, interval=cfg.interval)
+p = Planner(**base, plan=SensorPlan(["bearing", "range"], (0.0175, 30.0))); p.recommend(START, bel)
+t = time.process_time()
+for _ in range(2000): p.recommend(START, bel)
+""",
+    "planner H=2 over 1,000 particles x20 (general path)": """
+import numpy as np
+from tmakit.bounds.pcrb_recursion import PosteriorInformation
+from tmakit.motion.dynamics import NearlyConstantVelocity
+from tmakit.planning import Belief, Planner, SensorPlan
+from tmakit.sensors import PlatformState, platform_configuration
+cfg = platform_configuration("hurtado_nehorai_2008"); TARGET = np.array([-2e3, 15e3, 25.0, 0.0])
+post = PosteriorInformation.from_prior(np.diag([500.0**2, 500.0**2, 100.0, 100.0]),
+                                       NearlyConstantVelocity(dim=2, q=0.1), time=0.0)
+START, bel = PlatformState((0.0, 0.0), 0.0, 50.0), Belief(post, TARGET)
+base = dict(kinematics=cfg.kinematics, actions=cfg.actions, interval=cfg.interval)
+cloud = TARGET + np.random.default_rng(0).standard_normal((1000, 4)) * [500, 500, 10, 10]
+p = Planner(**base, plan=SensorPlan(["bearing", "range"], (0.0175, 30.0)), gamma="cloud",
+            horizon=2); bel = Belief(post, cloud); p.recommend(START, bel)
+t = time.process_time()
+for _ in range(20): p.recommend(START, bel)
+""",
     "ml no-guess, gu2007 x20": """
 scn = tk.load_scenario("gu2007"); data = [scn.simulate(rng=s) for s in range(20)]
 t = time.process_time()

@@ -41,26 +41,12 @@ class ObservationModel:
                  options: Mapping[str, Mapping[str, object]] | None = None) -> None:
         options = options_with_metadata(meas.kinds, options, meas.metadata)
         self.options = options  #: the per-kind model options, given or stated by the file
-        self.meas = meas
         self.motion = motion
         self.models: dict[str, MeasurementModel] = {
             k: model_for(k, options.get(k)) for k in meas.kinds
         }
-        #: Each kind's rows, a contiguous slice of the grouped order.
-        self.slices, order = group_by_kind(meas, list(self.models))
-        #: Grouped order is the set's own (one kind, or kinds already in blocks).
-        self.in_set_order = order is None
-        self._order = order  # None: the identity, made on first use (see order)
-        self._inverse = None if order is None else np.argsort(order)
-        self.grouped = meas if order is None else meas.take(order)
+        self._set_rows(meas, *group_by_kind(meas, list(self.models)))
         g = self.grouped
-        self._time = g.time
-        self._sensor = g.sensor_state
-        self.values, self.sigmas = meas.value_si, meas.sigma_si
-        self.values_grouped = self._to_grouped(self.values)
-        self.sigmas_grouped = self._to_grouped(self.sigmas)
-        self._set_row_model()
-        self.angle_mask = self._to_set_order(self.angle_mask_grouped)
         # Affine motion models: relative states by one matrix product (see _states_minus).
         self._rel_map = self._relative_map(self._time, self._sensor)
         self._rel_map_ref = (None if self._ref is None else self._relative_map(
@@ -68,6 +54,25 @@ class ObservationModel:
         self._const_design: Array | None = None
         #: The affine row map and the one kind's model of the planar path, or None.
         self.planar_kind: tuple[AffineRows, MeasurementModel] | None = planar_kind(self)
+
+    def _set_rows(self, meas: MeasurementSet, slices: dict[str, slice],
+                  order: NDArray[np.intp] | None) -> None:
+        """Hold the set's rows, grouped by kind, and their observation core."""
+        self.meas = meas
+        #: Each kind's rows, a contiguous slice of the grouped order.
+        self.slices = slices
+        #: Grouped order is the set's own (one kind, or kinds already in blocks).
+        self.in_set_order = order is None
+        self._order: NDArray[np.intp] | None = order  # None: the identity, made when first used
+        self._inverse: NDArray[np.intp] | None = None if order is None else np.argsort(order)
+        self.grouped: MeasurementSet = meas if order is None else meas.take(order)
+        self._time: Array = self.grouped.time
+        self._sensor: Array = self.grouped.sensor_state
+        self.values, self.sigmas = meas.value_si, meas.sigma_si
+        self.values_grouped = self._to_grouped(self.values)
+        self.sigmas_grouped = self._to_grouped(self.sigmas)
+        self._set_row_model()
+        self.angle_mask = self._to_set_order(self.angle_mask_grouped)
 
     @property
     def order(self) -> NDArray[np.intp]:
@@ -155,16 +160,8 @@ class ObservationModel:
         pick = grouped_idx if self._inverse is None else self._inverse[grouped_idx]  # ours
         sub = object.__new__(ObservationModel)
         sub.options = {k: dict(v) for k, v in self.options.items()}
-        sub.meas, sub.motion, sub.models = meas, self.motion, self.models
-        sub.slices, sub.in_set_order, sub._order = slices, order is None, order
-        sub._inverse = None if order is None else np.argsort(order)
-        sub.grouped = meas if order is None else meas.take(order)
-        sub._time, sub._sensor = sub.grouped.time, sub.grouped.sensor_state
-        sub.values, sub.sigmas = meas.value_si, meas.sigma_si  # (our values at idx)
-        sub.values_grouped = sub._to_grouped(sub.values)
-        sub.sigmas_grouped = sub._to_grouped(sub.sigmas)
-        sub._set_row_model()
-        sub.angle_mask = sub._to_set_order(sub.angle_mask_grouped)
+        sub.motion, sub.models = self.motion, self.models
+        sub._set_rows(meas, slices, order)
         # Our map's sensor states at pick are the new grouped ones: not gathered again.
         sub._rel_map = (None if self._rel_map is None
                         else self._rel_map.take(pick, sensor=sub._sensor))

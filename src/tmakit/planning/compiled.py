@@ -7,12 +7,11 @@ constant coefficients of ``W = R^{-1}``.
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 
 from ..core.arrays import Array
+from ..sensors.tracks import E1_COEFF, E2_COEFF, SERIES_BELOW, SERIES_TERMS
 from .measurement_plan import SensorPlan
 
 #: The products of ``1/r`` and the bearing rate ``q`` the kernels sum.
@@ -40,10 +39,15 @@ def spd_inverse(information: Array) -> Array | None:
     return out.reshape(info.shape)
 
 
-def supports_planar(plan: SensorPlan, sensor_states: Array) -> bool:
-    """Tell whether the closed form applies: 2-D, planar kinds, every sensor at ``z = 0``."""
+def planar_plan(plan: SensorPlan) -> bool:
+    """Tell whether the closed form applies to the plan: 2-D, planar kinds, no options."""
     return (plan.dim == 2 and set(plan.kinds) <= PLANAR_KINDS and not plan.options
-            and not plan.nuisance and not np.any(sensor_states[..., 2]))
+            and not plan.nuisance)
+
+
+def supports_planar(plan: SensorPlan, sensor_states: Array) -> bool:
+    """Tell whether the closed form applies: a planar plan, every sensor at ``z = 0``."""
+    return planar_plan(plan) and not np.any(sensor_states[..., 2])
 
 
 def compiled_basis(plan: SensorPlan) -> Packed:
@@ -317,10 +321,8 @@ def assemble_gamma(sums: Array, coef: Array, dgf: Array, out: Array) -> None:
 #: The first row of the sensor state in :func:`fly_rows`'s output (20 rows, see ``_fly_one``).
 SENSOR = 8
 
-_SERIES_BELOW = 0.25
-_TERMS = 17
-_E1 = np.array([1.0 / math.factorial(n + 1) for n in range(_TERMS)])
-_E2 = np.array([1.0 / (math.factorial(n) * (n + 2)) for n in range(_TERMS)])
+_TERMS = SERIES_TERMS   # the constant-turn factors' power series (sensors/tracks.py)
+_E1, _E2 = np.array(E1_COEFF), np.array(E2_COEFF)
 _LIMIT_TOL = 1e-9
 _TWO_PI = 2.0 * np.pi
 
@@ -350,7 +352,7 @@ def _wrap(angle: float) -> float:
 @_exact
 def _turn_factors(z: complex) -> tuple[complex, complex]:
     """``E1(z) = (e^z - 1) / z`` and ``E2(z) = (e^z (z - 1) + 1) / z^2``, stable at 0."""
-    if abs(z) < _SERIES_BELOW:
+    if abs(z) < SERIES_BELOW:
         s1 = complex(_E1[_TERMS - 1])
         s2 = complex(_E2[_TERMS - 1])
         for k in range(_TERMS - 2, -1, -1):

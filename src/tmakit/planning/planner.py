@@ -25,7 +25,7 @@ from ..sensors.platform import Actions, PlatformKinematics, PlatformState, Step
 from . import compiled
 from .belief import Belief, cubature_points
 from .candidates import GammaForm, check_gamma, step_information
-from .compiled import PLANAR_KINDS, compiled_basis
+from .compiled import compiled_basis, planar_plan
 from .constraints import Constraint, Violation
 from .criteria import Criterion, WeightedTrace, bound_covariance, evaluate
 from .measurement_plan import SensorPlan
@@ -171,8 +171,8 @@ class Planner:
         object.__setattr__(self, "constraints", tuple(self.constraints))
 
     def _expand(self, platform: PlatformState, information: Array, belief: Belief,
-                depth: int, gamma: GammaForm) -> tuple[Step, Array, list[Violation]]:
-        """Fly every action from each state (batch ``B``) ``depth`` steps ahead: (*B, A)."""
+                gamma: GammaForm) -> tuple[Step, Array, list[Violation]]:
+        """Fly every action from each state (batch ``B``) for one step: (*B, A)."""
         steps = fly(self.kinematics, platform, self.actions, self.interval)
         if steps is None:   # limits that raise: the NumPy step
             start = PlatformState.trusted(
@@ -226,8 +226,8 @@ class Planner:
             return Recommendation(fast.best, self.actions, fast.steps, fast.information,
                                   fast.cost, fast.bound, np.ones(n_act, dtype=bool), {}, False)
         if fast is None:
-            steps, info, viol = self._expand(platform, belief.posterior.information, belief, 0,
-                                            self.gamma)
+            steps, info, viol = self._expand(platform, belief.posterior.information, belief,
+                                             self.gamma)
             cov = bound_covariance(info)      # once, for the criterion and the bound
             cost, bound = evaluate(self.criterion, info, cov), position_bound(info, cov)
         else:
@@ -236,9 +236,7 @@ class Planner:
         factor, bad = penalties(viol, len(self.actions))
         cost = cost * factor
         if self.horizon > 1 or self.continuation is not None:
-            found = search(self, steps.end, steps.turn_rate, info, belief, factor, bad,
-                           self.beam, self.continuation)
-            cost, bad = found.cost, found.bad
+            cost, bad = search(self, steps.end, steps.turn_rate, info, belief, factor, bad)
         return _choose(self.actions, steps, info, cost, bad, viol, bound)
 
     def advance(self, belief: Belief, recommendation: Recommendation, states: Array,
@@ -351,48 +349,33 @@ class Continuation:
         return step_information(belief, information, thin, sensor, remaining, "mean", cloud)
 
 
-@dataclass(frozen=True, eq=False)
-class SearchResult:
-    """What :func:`search` found (per first action: inf where the beam dropped all its leaves)."""
-
-    cost: Array  # (A,) best leaf cost of the sequences starting with each action
-    bad: Array  # (A,) that leaf's total hard violation, m
-    sequence: Array  # (H,) the best sequence's action indices
-    nodes: int  # nodes whose information was computed
-
-
-def _score(planner: Planner, continuation: Continuation | None, ends: PlatformState,
-           turn_rate: Array, info: Array, factor: Array, belief: Belief) -> Array:
-    if continuation is not None:
-        info = continuation._information(planner, ends, turn_rate, info, belief)
+def _score(planner: Planner, ends: PlatformState, turn_rate: Array, info: Array,
+           factor: Array, belief: Belief) -> Array:
+    if planner.continuation is not None:
+        info = planner.continuation._information(planner, ends, turn_rate, info, belief)
     return planner.criterion(info) * factor
 
 
 def search(planner: Planner, ends: PlatformState, turn_rate: Array, information: Array,
-           belief: Belief, factor: Array, bad: Array, beam: int | None = None,
-           continuation: Continuation | None = None) -> SearchResult:
-    """Search the action tree of ``planner.horizon`` steps from the first step's candidates.
+           belief: Belief, factor: Array, bad: Array) -> tuple[Array, Array]:
+    """Return the best leaf cost of ``planner.horizon`` steps per first action and its violation.
+
+    Both (A,); the violation is the leaf's total hard one (m); inf where the beam dropped every
+    leaf of an action.
 
     References
     ----------
     Hurtado & Nehorai (2008), eq. 12 (the criterion; the paper's horizon is one step).
     """
-    if beam is not None and (int(beam) != beam or beam < 1):
-        raise ValueError(f"beam must be a whole number >= 1 or None; got {beam!r}")
-    a = len(planner.actions)
-    first = np.arange(a)
-    paths = first[:, None]
-    nodes = a
-    for depth in range(1, planner.horizon):
+    a, beam = len(planner.actions), planner.beam
+    paths = np.arange(a)[:, None]
+    for _ in range(1, planner.horizon):
         if beam is not None and paths.shape[0] > beam:
-            score = _score(planner, continuation, ends, turn_rate, information, factor,
-                           belief)
+            score = _score(planner, ends, turn_rate, information, factor, belief)
             keep = np.lexsort((score, bad))[:int(beam)]
             ends, turn_rate, information = ends[keep], turn_rate[keep], information[keep]
             factor, bad, paths = factor[keep], bad[keep], paths[keep]
-            if continuation is not None:
-                nodes += keep.size
-        steps, info, viol = planner._expand(ends, information, belief, depth, "mean")
+        steps, info, viol = planner._expand(ends, information, belief, "mean")
         f_new, bad_new = penalties(viol, steps.turn_rate.size)
         m = paths.shape[0]
         factor = (factor[:, None] * f_new.reshape(m, a)).ravel()
@@ -401,20 +384,19 @@ def search(planner: Planner, ends: PlatformState, turn_rate: Array, information:
                                 np.tile(np.arange(a), m)[:, None]], axis=1)
         ends, turn_rate = _flat(steps.end), steps.turn_rate.ravel()
         information = info.reshape(m * a, *info.shape[-2:])
-        nodes += m * a
-    leaf = _score(planner, continuation, ends, turn_rate, information, factor, belief)
+    leaf = _score(planner, ends, turn_rate, information, factor, belief)
     cost = np.full(a, np.inf)
     worst = np.full(a, np.inf)
     order = np.lexsort((leaf, bad))
     firsts, at = np.unique(paths[order, 0], return_index=True)   # best leaf per first action
     cost[firsts], worst[firsts] = leaf[order[at]], bad[order[at]]
-    return SearchResult(cost, worst, paths[order[0]], nodes)
+    return cost, worst
 
 
 def _flat(state: PlatformState) -> PlatformState:
     """Flatten a batch of platform states to one axis."""
-    return PlatformState(state.position.reshape(-1, 3), state.heading.ravel(),
-                         state.speed.ravel(), state.climb_rate.ravel(), state.time)
+    return PlatformState.trusted(state.position.reshape(-1, 3), state.heading.ravel(),
+                                 state.speed.ravel(), state.climb_rate.ravel(), state.time)
 
 
 def step_violations(constraints: Sequence[Constraint], steps: Step, belief: Belief,
@@ -624,7 +606,6 @@ class Decision:
 
     steps: Step
     information: Array  # ``J_{k+1}``, SI; shape (A, 4, 4)
-    covariance: Array  # ``J_{k+1}^{-1}``
     cost: Array  # The criterion (no penalties)
     bound: Array  # Position RMS bound, m
     #: The candidate of least cost (ties: the first; NaN last); None for a cost made outside
@@ -635,8 +616,7 @@ def _setup(planner: Planner) -> tuple[Any, ...] | None:
     """Return the decision's constant arguments for ``planner`` (None: it does not apply)."""
     plan, kin = planner.plan, planner.kinematics
     times = plan.measurement_times(planner.interval)
-    if (kin.on_limit != "clip" or plan.dim != 2 or not set(plan.kinds) <= PLANAR_KINDS
-            or plan.options or plan.nuisance or times.size != 1
+    if (kin.on_limit != "clip" or not planar_plan(plan) or times.size != 1
             or times[0] != planner.interval or len(planner.actions.shape) != 1):
         return None
     names, coef, dgf = compiled_basis(plan)
@@ -701,4 +681,4 @@ def decide(planner: Planner, cache: dict[str, Any], platform: PlatformState,
     if not trace:
         cost = evaluate(planner.criterion, info, cov)
     steps = LazyStep.of(rows, flags, (n_act,), interval, platform.time)
-    return Decision(steps, info, cov, cost, bound, best)
+    return Decision(steps, info, cost, bound, best)

@@ -33,6 +33,17 @@ def _arr(a: ArrayLike) -> Array:
     return np.asarray(a, dtype=float)
 
 
+def _set(state: PlatformState, position: Array, heading: Array, speed: Array,
+         climb_rate: Array, time: float) -> None:
+    """Set the fields of a frozen state as given (time as a float)."""
+    setattr_ = object.__setattr__
+    setattr_(state, "position", position)
+    setattr_(state, "heading", heading)
+    setattr_(state, "speed", speed)
+    setattr_(state, "climb_rate", climb_rate)
+    setattr_(state, "time", float(time))
+
+
 @dataclass(frozen=True, eq=False)
 class PlatformState:
     """Where a steerable platform is and how it moves, for one or many platforms at once.
@@ -88,11 +99,7 @@ class PlatformState:
                              "be finite")
         if np.any(fields[1] < 0):
             raise ValueError(f"platform speed must be >= 0 m/s, got {fields[1].min():g}")
-        object.__setattr__(self, "position", p)
-        object.__setattr__(self, "heading", wrap_angle(fields[0]))
-        object.__setattr__(self, "speed", fields[1])
-        object.__setattr__(self, "climb_rate", fields[2])
-        object.__setattr__(self, "time", float(time))
+        _set(self, p, wrap_angle(fields[0]), fields[1], fields[2], time)
 
     @classmethod
     def trusted(cls, position: Array, heading: Array, speed: Array, climb_rate: Array,
@@ -109,11 +116,8 @@ class PlatformState:
         PlatformState
         """
         state = object.__new__(cls)
-        object.__setattr__(state, "position", np.array(position, dtype=float))
-        object.__setattr__(state, "heading", wrap_angle(np.array(heading, dtype=float)))
-        object.__setattr__(state, "speed", np.array(speed, dtype=float))
-        object.__setattr__(state, "climb_rate", np.array(climb_rate, dtype=float))
-        object.__setattr__(state, "time", float(time))
+        _set(state, np.array(position, dtype=float), wrap_angle(np.array(heading, dtype=float)),
+             np.array(speed, dtype=float), np.array(climb_rate, dtype=float), time)
         return state
 
     @classmethod
@@ -131,12 +135,7 @@ class PlatformState:
         PlatformState
         """
         state = object.__new__(cls)
-        setattr_ = object.__setattr__
-        setattr_(state, "position", position)
-        setattr_(state, "heading", heading)
-        setattr_(state, "speed", speed)
-        setattr_(state, "climb_rate", climb_rate)
-        object.__setattr__(state, "time", float(time))
+        _set(state, position, heading, speed, climb_rate, time)
         return state
 
     @classmethod

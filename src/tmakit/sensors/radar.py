@@ -21,9 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["HURTADO_NEHORAI_2008_RADAR", "RADAR_KINDS", "RadarModel"]
+from ..core.arrays import Array
+from ..measurements import KINDS
 
-Array = NDArray[np.float64]
+__all__ = ["HURTADO_NEHORAI_2008_RADAR", "RADAR_KINDS", "RadarModel"]
 
 
 def relative_states(target_states: ArrayLike, sensor_states: ArrayLike) -> tuple[Array, int]:
@@ -43,47 +44,12 @@ def relative_states(target_states: ArrayLike, sensor_states: ArrayLike) -> tuple
     return target - s, dim
 
 
-def measurement_jacobian(rel: Array, dim: int) -> Array:
-    """Return ``d [bearing, (elevation), range, range_rate] / d target state`` (..., m, 2 dim)."""
-    p, v = rel[..., :3], rel[..., 3:]
-    r = np.linalg.norm(p, axis=-1)
-    unit = p / r[..., None]
-    rdot = np.einsum("...i,...i->...", unit, v)
-    rho2 = p[..., 0] ** 2 + p[..., 1] ** 2
-    rows = []
-    d_bearing = np.zeros(rel.shape)
-    d_bearing[..., 0], d_bearing[..., 1] = p[..., 1] / rho2, -p[..., 0] / rho2
-    rows.append(d_bearing)
-    if dim == 3:
-        rho = np.sqrt(rho2)
-        d_el = np.zeros(rel.shape)
-        d_el[..., 0] = -p[..., 2] * p[..., 0] / (rho * r * r)
-        d_el[..., 1] = -p[..., 2] * p[..., 1] / (rho * r * r)
-        d_el[..., 2] = rho / (r * r)
-        rows.append(d_el)
-    d_range = np.zeros(rel.shape)
-    d_range[..., :3] = unit
-    rows.append(d_range)
-    d_rdot = np.concatenate([(v - rdot[..., None] * unit) / r[..., None], unit], axis=-1)
-    rows.append(d_rdot)
-    d6 = np.stack(rows, axis=-2)
-    return np.concatenate([d6[..., :dim], d6[..., 3:3 + dim]], axis=-1)
-
-
-def elevation_of(rel: Array) -> Array:
-    """Return the elevation ``atan2(dz, hypot(dx, dy))`` of relative states, rad."""
-    return np.arctan2(rel[..., 2], np.hypot(rel[..., 0], rel[..., 1]))
-
-
-def measurements(rel: Array, dim: int) -> Array:
-    """Return ``[bearing, (elevation), range, range_rate]`` (rad, m, m/s) of relative states."""
-    p, v = rel[..., :3], rel[..., 3:]
-    r = np.linalg.norm(p, axis=-1)
-    out = [np.arctan2(p[..., 0], p[..., 1])]
-    if dim == 3:
-        out.append(elevation_of(rel))
-    out += [r, np.einsum("...i,...i->...", p, v) / r]
-    return np.stack(out, axis=-1)
+def kind_rows(rel: Array, kinds: Sequence[str], jacobian: bool = False) -> Array:
+    """Return the kinds' predictions (..., m) of relative states, or their Jacobians (..., m, 6)."""
+    models = [KINDS[k]() for k in kinds]
+    if jacobian:
+        return np.stack([m.jacobian(rel).rel for m in models], axis=-2)
+    return np.stack([m.predict(rel) for m in models], axis=-1)
 
 
 #: The measured quantities in tmakit's kinds, the order of the full information matrix.
@@ -478,10 +444,11 @@ class RadarModel:
         ndarray
             ``(..., m)``: :meth:`kinds` ``(dim)`` in order; rad, m, m/s.
         """
-        return measurements(*relative_states(target_states, sensor_states))
+        rel, dim = relative_states(target_states, sensor_states)
+        return kind_rows(rel, self.kinds(dim))
 
     def _information_at(self, rel: Array, dim: int) -> Array:
-        info = self.measurement_information(elevation_of(rel))
+        info = self.measurement_information(kind_rows(rel, ("elevation",))[..., 0])
         return info if dim == 3 else info[..., [0, 2, 3], :][..., [0, 2, 3]]
 
     def state_information(self, target_states: ArrayLike, sensor_states: ArrayLike) -> Array:
@@ -510,7 +477,8 @@ class RadarModel:
         x, s = np.asarray(target_states, dtype=float), np.asarray(sensor_states, dtype=float)
         outer = s.ndim == 2 and x.ndim == 2  # every sensor state against every target state
         rel, dim = relative_states(x[None] if outer else x, s[:, None] if outer else s)
-        h = measurement_jacobian(rel, dim)
+        d6 = kind_rows(rel, self.kinds(dim), jacobian=True)
+        h = np.concatenate([d6[..., :dim], d6[..., 3:3 + dim]], axis=-1)
         info = self._information_at(rel, dim)
         return np.einsum("...ai,...ab,...bj->...ij", h, info, h)
 

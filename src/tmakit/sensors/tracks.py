@@ -14,11 +14,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-_SERIES_BELOW = 0.25  # |w s| below this: E1, E2 from their power series (closed form above
+SERIES_BELOW = 0.25  # |w s| below this: E1, E2 from their power series (closed form above
 #                       loses at most eps / 0.25^2 ~ 4e-15 relative to cancellation)
-_SERIES_TERMS = 17    # 0.25**17 / 17! ~ 2e-25: far below rounding
-_E1_COEFF = [1.0 / math.factorial(n + 1) for n in range(_SERIES_TERMS)]
-_E2_COEFF = [1.0 / (math.factorial(n) * (n + 2)) for n in range(_SERIES_TERMS)]
+SERIES_TERMS = 17    # 0.25**17 / 17! ~ 2e-25: far below rounding
+E1_COEFF = [1.0 / math.factorial(n + 1) for n in range(SERIES_TERMS)]
+E2_COEFF = [1.0 / (math.factorial(n) * (n + 2)) for n in range(SERIES_TERMS)]
 
 
 def _turn_factors(z: NDArray[np.complex128]) -> tuple[NDArray[np.complex128], ...]:
@@ -27,13 +27,13 @@ def _turn_factors(z: NDArray[np.complex128]) -> tuple[NDArray[np.complex128], ..
     z = np.atleast_1d(z)
     e1 = np.empty_like(z)
     e2 = np.empty_like(z)
-    small = np.abs(z) < _SERIES_BELOW
+    small = np.abs(z) < SERIES_BELOW
     every = bool(small.all())
     if every or small.any():                    # Horner on the power series
         zs = z if every else z[small]
-        s1 = np.full_like(zs, _E1_COEFF[-1])
-        s2 = np.full_like(zs, _E2_COEFF[-1])
-        for c1, c2 in zip(_E1_COEFF[-2::-1], _E2_COEFF[-2::-1], strict=True):
+        s1 = np.full_like(zs, E1_COEFF[-1])
+        s2 = np.full_like(zs, E2_COEFF[-1])
+        for c1, c2 in zip(E1_COEFF[-2::-1], E2_COEFF[-2::-1], strict=True):
             s1 *= zs    # in place: the same values as s1 * zs + c1, no temporaries
             s1 += c1
             s2 *= zs
