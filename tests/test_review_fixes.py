@@ -279,12 +279,18 @@ def test_a_manoeuvre_search_beyond_the_limit_is_refused_and_the_limit_can_be_rai
 
 
 def test_the_track_says_when_its_innovations_contradict_its_covariances():
+    from types import SimpleNamespace
+
     from tmakit.cli.track import nis_verdict
 
-    assert nis_verdict(440.0 * 1.069, 440) == ""  # a consistent bearings-only track
-    said = nis_verdict(886 * 6.5, 886)  # a manoeuvring target tracked as constant velocity
+    def verdict(nis_per_dof, dof):  # a track of one-dof updates, the first not an update
+        nis = np.r_[np.nan, np.full(dof, nis_per_dof)]
+        return nis_verdict(SimpleNamespace(nis=nis, dof=np.r_[0, np.ones(dof, dtype=int)]))
+
+    assert verdict(1.069, 440) == ""  # a consistent bearings-only track
+    said = verdict(6.5, 886)  # a manoeuvring target tracked as constant velocity
     assert "larger than the track's covariances allow" in said and "overconfident" in said
-    assert "smaller than the measurement sigmas imply" in nis_verdict(300.0, 440)
+    assert "smaller than the measurement sigmas imply" in verdict(300.0 / 440, 440)
 
 
 def test_tracking_a_manoeuvring_target_as_constant_velocity_is_flagged(tmp_path):
