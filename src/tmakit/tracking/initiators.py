@@ -92,6 +92,10 @@ _PROBES = 8
 _PROBE_REACH = 2.0
 _PROBE_ROUNDS = 3
 _PROBE_GROWTH = 1.25
+# A probe's fit stops after so many steps, or where its Gauss-Newton model's minimum lies more
+# than so many quantiles above the limit (the start left every valley far behind).
+_PROBE_ITERATIONS = 15
+_PROBE_FAR = 100.0
 
 
 @dataclass(frozen=True)
@@ -554,8 +558,10 @@ def likelihood_covariance(result: EstimateResult, rows: MeasurementSet, time: fl
     obs = ObservationModel(rows, result.motion, options)
     nu = (obs.nuisance_vector({n: v for n, (v, _) in result.nuisance.items()})
           if obs.n_nuisance else None)
+    mirrored = "z" in result.motion.param_names and rows.mirror_plane(1e-9) is not None
     ends, converged, multimodal = _profile_ends(lambda z: theta + z @ scale.T, scale,
-                                                np.array(ups), obs, NoiseModel(rows), nu, quantile)
+                                                np.array(ups), obs, NoiseModel(rows), nu, quantile,
+                                                mirrored=mirrored)
     wide_z, wide, widened = np.eye(len(theta)), cov, []
     for (axis, direction), z, sure, valleys in zip(sides, ends, converged, multimodal,
                                                    strict=True):
@@ -571,8 +577,8 @@ def likelihood_covariance(result: EstimateResult, rows: MeasurementSet, time: fl
 
 
 def _profile_ends(point: Callable[[Array], Array], scale: Array, dirs: Array,
-                  obs: ObservationModel, noise: NoiseModel, nu: Array | None, quantile: float
-                  ) -> tuple[Array, NDArray[np.bool_], NDArray[np.bool_]]:
+                  obs: ObservationModel, noise: NoiseModel, nu: Array | None, quantile: float,
+                  *, mirrored: bool = False) -> tuple[Array, NDArray[np.bool_], NDArray[np.bool_]]:
     """Give the ends ``(k, p)`` of the profiles up unit ``dirs[i] @ z``, converged, multi-modal.
 
     ``point(z)`` is theta; in ``z`` the fit's covariance is the identity.  The ends are iterated
@@ -633,13 +639,14 @@ def _profile_ends(point: Callable[[Array], Array], scale: Array, dirs: Array,
     for i in np.flatnonzero(~converged):
         z[i], converged[i] = _profile_search(residuals, jacobians, dirs[i], z[i], limit, quantile,
                                              cap)
-    multimodal = _valleys_beyond(residuals, jacobians, dirs, z, converged, limit, quantile, cap)
+    multimodal = _valleys_beyond(residuals, jacobians, dirs, z, converged, limit, quantile, cap,
+                                 mirrored)
     return z, converged, multimodal
 
 
 def _valleys_beyond(residuals: Callable[[Array], Array], jacobians: Callable[[Array], Array],
                     dirs: Array, z: Array, converged: NDArray[np.bool_], limit: float,
-                    quantile: float, cap: float) -> NDArray[np.bool_]:
+                    quantile: float, cap: float, mirrored: bool) -> NDArray[np.bool_]:
     """Move each end ``z[i]`` out past any further valley of its profile (in place).
 
     A local search stops at the end of the valley it started in; where the fit has another
@@ -667,7 +674,17 @@ def _valleys_beyond(residuals: Callable[[Array], Array], jacobians: Callable[[Ar
         if not owners:
             break
         own, t = np.array(owners), np.array(ts)
-        points, costs = _held_fits(residuals, jacobians, dirs[own], t[:, None] * dirs[own], limit,
+        jac = jacobians(z)
+        hess = jac.transpose(0, 2, 1) @ jac
+        tangent = _solve_each(hess, dirs)  # (the way the held fit moves as dirs @ z grows)
+        tangent /= np.einsum("kp,kp->k", tangent, dirs)[:, None]
+        starts = z[own] + (t - np.einsum("mp,mp->m", z[own], dirs[own]))[:, None] * tangent[own]
+        if mirrored:
+            own, t = np.concatenate([own, own]), np.concatenate([t, t])
+            starts = np.concatenate([starts, t[len(starts):, None] * dirs[own[len(starts):]]])
+        order = np.lexsort((t, own))
+        own, t = own[order], t[order]
+        points, costs = _held_fits(residuals, jacobians, dirs[own], starts[order], limit,
                                    quantile)
         todo[:] = False
         for i in np.unique(own[costs < limit]):
@@ -689,7 +706,8 @@ def _held_fits(residuals: Callable[[Array], Array], jacobians: Callable[[Array],
     valley there), or when a Gauss-Newton step foresees less than ``_PROFILE_ACCURACY``
     quantiles of decrease in a step shorter than ``_PROFILE_ACCURACY`` of the point's distance
     (a minimum above the limit; a long step that foresees little crosses a flat stretch), or
-    after ``_PROFILE_ITERATIONS`` steps.
+    foresees a minimum more than ``_PROBE_FAR`` quantiles above the limit, or after
+    ``_PROBE_ITERATIONS`` steps.
     """
     basis = np.linalg.svd(dirs[:, None, :])[2][:, 1:, :]  # (m, p - 1, p): the held-free moves
     z = np.array(z, dtype=np.float64)
@@ -700,18 +718,19 @@ def _held_fits(residuals: Callable[[Array], Array], jacobians: Callable[[Array],
     if active.any():
         jac[active] = jacobians(z[active])
     damping = np.full(len(z), 1e-3)
-    for _ in range(_PROFILE_ITERATIONS):
+    for _ in range(_PROBE_ITERATIONS):
         idx = np.flatnonzero(active)
         if not len(idx):
             break
-        jw = np.einsum("anp,aqp->anq", jac[idx], basis[idx])
-        grad = np.einsum("anq,an->aq", jw, res[idx])
-        hess = np.einsum("anq,anr->aqr", jw, jw)
+        j, b = jac[idx], basis[idx]
+        grad = (b @ (res[idx][:, None, :] @ j)[:, 0, :, None])[..., 0]
+        hess = b @ (j.transpose(0, 2, 1) @ j) @ b.transpose(0, 2, 1)
         gn = _solve_each(hess, grad)
         length = np.sqrt(np.einsum("aq,aq->a", gn, gn))
         far = np.sqrt(np.einsum("ap,ap->a", z[idx], z[idx]))
-        flat = ~((np.einsum("aq,aq->a", grad, gn) > _PROFILE_ACCURACY * quantile)
-                 | (length > _PROFILE_ACCURACY * far))  # (and a point whose model is not finite)
+        foreseen = np.einsum("aq,aq->a", grad, gn)
+        flat = ~(((foreseen > _PROFILE_ACCURACY * quantile) | (length > _PROFILE_ACCURACY * far))
+                 & (cost[idx] - foreseen <= limit + _PROBE_FAR * quantile))  # (or not finite)
         active[idx[flat]] = False
         idx, grad, hess = idx[~flat], grad[~flat], hess[~flat]
         if not len(idx):
@@ -723,7 +742,7 @@ def _held_fits(residuals: Callable[[Array], Array], jacobians: Callable[[Array],
         tres = residuals(trial)
         new = np.einsum("an,an->a", tres, tres)
         ok = np.isfinite(new) & (new < cost[idx])
-        damping[idx] = np.where(ok, damping[idx] / 3, damping[idx] * 4)
+        damping[idx] = np.where(ok, damping[idx] / 10, damping[idx] * 10)
         good = idx[ok]
         z[good], res[good], cost[good] = trial[ok], tres[ok], new[ok]
         active[good[new[ok] < limit]] = False
