@@ -93,9 +93,12 @@ _PROBE_REACH = 2.0
 _PROBE_ROUNDS = 3
 _PROBE_GROWTH = 1.25
 # A probe's fit stops after so many steps, or where its Gauss-Newton model's minimum lies more
-# than so many quantiles above the limit (the start left every valley far behind).
+# than so many quantiles above the limit: a probe from the held fit's tangent is near its own
+# valley (those that found another valley in the built-in scenarios foresaw at most 2.1), one
+# from the axis in a mirror image's valley starts far from it (those foresaw up to 60).
 _PROBE_ITERATIONS = 15
-_PROBE_FAR = 100.0
+_PROBE_FAR = 3.0
+_PROBE_FAR_MIRROR = 100.0
 
 
 @dataclass(frozen=True)
@@ -679,13 +682,15 @@ def _valleys_beyond(residuals: Callable[[Array], Array], jacobians: Callable[[Ar
         tangent = _solve_each(hess, dirs)  # (the way the held fit moves as dirs @ z grows)
         tangent /= np.einsum("kp,kp->k", tangent, dirs)[:, None]
         starts = z[own] + (t - np.einsum("mp,mp->m", z[own], dirs[own]))[:, None] * tangent[own]
+        far = np.full(len(own), _PROBE_FAR)
         if mirrored:
             own, t = np.concatenate([own, own]), np.concatenate([t, t])
             starts = np.concatenate([starts, t[len(starts):, None] * dirs[own[len(starts):]]])
+            far = np.concatenate([far, np.full(len(far), _PROBE_FAR_MIRROR)])
         order = np.lexsort((t, own))
         own, t = own[order], t[order]
         points, costs = _held_fits(residuals, jacobians, dirs[own], starts[order], limit,
-                                   quantile)
+                                   quantile, far[order])
         todo[:] = False
         for i in np.unique(own[costs < limit]):
             j = np.flatnonzero((own == i) & (costs < limit))[-1]  # (the outermost)
@@ -698,7 +703,8 @@ def _valleys_beyond(residuals: Callable[[Array], Array], jacobians: Callable[[Ar
 
 
 def _held_fits(residuals: Callable[[Array], Array], jacobians: Callable[[Array], Array],
-               dirs: Array, z: Array, limit: float, quantile: float) -> tuple[Array, Array]:
+               dirs: Array, z: Array, limit: float, quantile: float, far: Array
+               ) -> tuple[Array, Array]:
     """Fit each ``z[i]`` with ``dirs[i] @ z`` held, until inside ``limit``; give them, their costs.
 
     Levenberg-Marquardt steps (Nocedal & Wright 2006, ch. 10) in the complement of each
@@ -706,7 +712,7 @@ def _held_fits(residuals: Callable[[Array], Array], jacobians: Callable[[Array],
     valley there), or when a Gauss-Newton step foresees less than ``_PROFILE_ACCURACY``
     quantiles of decrease in a step shorter than ``_PROFILE_ACCURACY`` of the point's distance
     (a minimum above the limit; a long step that foresees little crosses a flat stretch), or
-    foresees a minimum more than ``_PROBE_FAR`` quantiles above the limit, or after
+    foresees a minimum more than ``far[i]`` quantiles above the limit, or after
     ``_PROBE_ITERATIONS`` steps.
     """
     basis = np.linalg.svd(dirs[:, None, :])[2][:, 1:, :]  # (m, p - 1, p): the held-free moves
@@ -714,23 +720,24 @@ def _held_fits(residuals: Callable[[Array], Array], jacobians: Callable[[Array],
     res = residuals(z)
     cost = np.einsum("mn,mn->m", res, res)
     active = np.isfinite(cost) & (cost >= limit)
-    jac = np.zeros((*res.shape, z.shape[1]))
-    if active.any():
-        jac[active] = jacobians(z[active])
+    jac, stale = np.zeros((*res.shape, z.shape[1])), np.ones(len(z), dtype=bool)
     damping = np.full(len(z), 1e-3)
     for _ in range(_PROBE_ITERATIONS):
         idx = np.flatnonzero(active)
         if not len(idx):
             break
+        if stale[idx].any():
+            jac[idx[stale[idx]]] = jacobians(z[idx[stale[idx]]])
+            stale[idx] = False
         j, b = jac[idx], basis[idx]
         grad = (b @ (res[idx][:, None, :] @ j)[:, 0, :, None])[..., 0]
         hess = b @ (j.transpose(0, 2, 1) @ j) @ b.transpose(0, 2, 1)
         gn = _solve_each(hess, grad)
         length = np.sqrt(np.einsum("aq,aq->a", gn, gn))
-        far = np.sqrt(np.einsum("ap,ap->a", z[idx], z[idx]))
+        dist = np.sqrt(np.einsum("ap,ap->a", z[idx], z[idx]))
         foreseen = np.einsum("aq,aq->a", grad, gn)
-        flat = ~(((foreseen > _PROFILE_ACCURACY * quantile) | (length > _PROFILE_ACCURACY * far))
-                 & (cost[idx] - foreseen <= limit + _PROBE_FAR * quantile))  # (or not finite)
+        flat = ~(((foreseen > _PROFILE_ACCURACY * quantile) | (length > _PROFILE_ACCURACY * dist))
+                 & (cost[idx] - foreseen <= limit + far[idx] * quantile))  # (or not finite)
         active[idx[flat]] = False
         idx, grad, hess = idx[~flat], grad[~flat], hess[~flat]
         if not len(idx):
@@ -744,12 +751,16 @@ def _held_fits(residuals: Callable[[Array], Array], jacobians: Callable[[Array],
         ok = np.isfinite(new) & (new < cost[idx])
         damping[idx] = np.where(ok, damping[idx] / 10, damping[idx] * 10)
         good = idx[ok]
-        z[good], res[good], cost[good] = trial[ok], tres[ok], new[ok]
-        active[good[new[ok] < limit]] = False
-        active[idx[damping[idx] > 1e8]] = False
-        again = good[active[good]]
-        if len(again):
-            jac[again] = jacobians(z[again])
+        # (a short step that lowered the chi-square by less than the accuracy: at a minimum)
+        short = np.sqrt(np.einsum("aq,aq->a", step[ok], step[ok])) <= (
+            _PROFILE_ACCURACY * dist[~flat][ok])
+        small = short & (cost[good] - new[ok] <= _PROFILE_ACCURACY * quantile)
+        z[good], res[good], cost[good], stale[good] = trial[ok], tres[ok], new[ok], True
+        active[good[(new[ok] < limit) | small]] = False
+        # (a refused step whose model foresaw less than the accuracy: damping more will not do)
+        hopeless = -(2 * np.einsum("aq,aq->a", grad, step)
+                     + np.einsum("aq,aqr,ar->a", step, hess, step)) <= _PROFILE_ACCURACY * quantile
+        active[idx[(~ok & hopeless) | (damping[idx] > 1e8)]] = False
     return z, cost
 
 
