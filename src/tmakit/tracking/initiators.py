@@ -355,8 +355,8 @@ class BatchStart:
             ``dof``, ``relative_position_std``, ``max_relative_std``, ``windows_tried``,
             ``nuisance`` (value and std by name), ``held_nuisance`` (chi-square by name),
             ``held_nuisance_note``, ``widened`` (the profile-likelihood ends that widened the
-            covariance: ``axis``, ``direction``, ``factor``), ``confirmation`` and
-            ``rejected``.
+            covariance: ``axis``, ``direction``, ``factor``, ``converged``, ``multimodal``),
+            ``confirmation`` and ``rejected``.
         """
         est = self.estimate
         out: dict[str, Any] = {
