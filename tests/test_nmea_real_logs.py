@@ -217,7 +217,7 @@ def test_power_alone_from_a_vehicle_standing_still_gives_no_ellipse_to_trust(tmp
     mapping.write_text(runner.invoke(app, ["import", "wide", str(path), "--guess"]).output)
     meas = tk.read_measurements(path, format="wide", mapping=mapping)
     res = tk.estimate(meas, "static2d")
-    truth = np.mean(meas.sensor_state[:, :2], axis=0) + [120.0, 0.0]
+    truth = np.mean(meas.sensor_state[:, :2], axis=0) + np.array([120.0, 0.0])
     miss = res.estimate[:2] - truth
     assert miss @ np.linalg.solve(res.covariance[:2, :2], miss) > 5.99  # outside its 95 % ellipse
     assert "ellipse-not-a-bound" in [w.code for w in res.warnings(meas)]
