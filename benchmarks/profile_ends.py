@@ -7,7 +7,8 @@ sure reference: the profile at a fixed axis value ``t`` is the fit with that coo
 (``scipy.optimize.least_squares`` over the rest), and its end is the root of
 ``profile(t) - limit`` by ``brentq``.  It prints the solver's steps, ends stopped short (cost
 more than 1 % of a quantile from the limit), and the widening factors of ``likelihood_covariance``
-with the solver's ends against those with the reference's.
+with the solver's ends against those with the reference's, and the ends flagged (not converged,
+or beyond another valley of the profile).
 
     python benchmarks/profile_ends.py --seeds 10
 """
@@ -102,9 +103,11 @@ def recording() -> Iterator[list[dict[str, Any]]]:
     def recorded(*a: Any, **kw: Any) -> Any:
         state["steps"] = 0
         out = ends(*a, **kw)
-        ends_, sure = out if isinstance(out, tuple) else (out, np.ones(len(out), dtype=bool))
+        ends_, sure, *more = out
+        valleys = more[0] if more else np.zeros(len(ends_), dtype=bool)
         calls.append({"args": a, "ends": np.array(ends_, copy=True),
-                      "converged": np.array(sure), "steps": state["steps"]})
+                      "converged": np.array(sure), "multimodal": np.array(valleys),
+                      "steps": state["steps"]})
         return out
 
     initiators._profile_ends, initiators._end_steps = recorded, counting_steps
@@ -161,7 +164,7 @@ def main() -> None:
                 ref = reference_ends(*call["args"])
                 g = gaps(call)
                 ours, theirs = widening(call, call["ends"]), widening(call, ref)
-                flagged = int(np.sum(~call["converged"]))
+                flagged = int(np.sum(~call["converged"] | call["multimodal"]))
                 rows.append((name, seed, call["steps"], float(np.max(np.abs(g))), ours, theirs,
                              flagged))
                 print(f"{name:18s} {seed} steps {call['steps']:3d} worst gap "
@@ -170,11 +173,13 @@ def main() -> None:
                       f" flagged {flagged} cpu {cpu:.2f}", flush=True)
     steps = [r[2] for r in rows]
     off = [r for r in rows if not abs(r[4] / r[5] - 1) <= 0.02]  # (nan: no reference)
+    short = [r for r in rows if r[4] < 0.98 * r[5]]
     print(f"starts {len(rows)}, Gauss-Newton steps {sum(steps)}, at the step cap "
           f"{sum(s >= initiators._PROFILE_ITERATIONS for s in steps)}, worst gap > 0.01 quantile "
           f"{sum(r[3] > 0.01 for r in rows)}, widening off the reference by > 2 % "
-          f"{len(off)} (of them flagged {sum(r[6] > 0 for r in off)}), starts with a flagged end "
-          f"{sum(r[6] > 0 for r in rows)}")
+          f"{len(off)} (of them flagged {sum(r[6] > 0 for r in off)}), short of it by > 2 % "
+          f"{len(short)} (of them flagged {sum(r[6] > 0 for r in short)}), starts with a flagged "
+          f"end (not converged or beyond another valley) {sum(r[6] > 0 for r in rows)}")
 
 
 if __name__ == "__main__":

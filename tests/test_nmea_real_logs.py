@@ -7,6 +7,7 @@ date comes from RMC or ZDA, and the positions and times are the file's.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -197,6 +198,37 @@ def test_px4_logs_before_v1_14_write_positions_in_1e7_degrees_and_millimetres(tm
                                   str(tmp_path / "no.csv")])
     assert refused.exit_code == 2
     assert "holds integers up to 634170622: latitudes in 1e-7 degrees" in refused.output
+
+
+def test_power_alone_from_a_vehicle_standing_still_gives_no_ellipse_to_trust(tmp_path):
+    # The real log's vehicle stands still (its fixes wander 1.8 m by GPS noise); an emitter 120 m
+    # east gives it the same power at every fix, 2 dB noise.  With the power constant unknown the
+    # range is unobservable, but the fit explains the noise by the fixes' wander with the emitter
+    # a few metres away, where the linearised ellipse is 29 x 1.8 m and misses the truth: the
+    # answer must say that this ellipse is no bound (it said only "the ellipse is wide").
+    import pandas as pd
+
+    log = pd.read_csv(PX4 / "sample_log_small_vehicle_gps_position_0.csv")
+    log["rssi_dbm"] = -60.0 + np.random.default_rng(0).normal(0.0, 2.0, len(log))
+    path = tmp_path / "standing.csv"
+    log.to_csv(path, index=False)
+    runner = CliRunner()
+    mapping = tmp_path / "standing.toml"
+    mapping.write_text(runner.invoke(app, ["import", "wide", str(path), "--guess"]).output)
+    meas = tk.read_measurements(path, format="wide", mapping=mapping)
+    res = tk.estimate(meas, "static2d")
+    truth = np.mean(meas.sensor_state[:, :2], axis=0) + np.array([120.0, 0.0])
+    miss = res.estimate[:2] - truth
+    assert miss @ np.linalg.solve(res.covariance[:2, :2], miss) > 5.99  # outside its 95 % ellipse
+    assert "ellipse-not-a-bound" in [w.code for w in res.warnings(meas)]
+    out = runner.invoke(app, ["estimate", str(path), "--mapping", str(mapping), "--motion",
+                              "static2d"])
+    text = " ".join(out.output.split())
+    assert "(not a bound: range undetermined)" in text
+    assert "cannot be trusted to hold the truth" in text
+    data = json.loads(runner.invoke(app, ["estimate", str(path), "--mapping", str(mapping),
+                                          "--motion", "static2d", "--json"]).stdout)
+    assert "ellipse-not-a-bound" in [w["code"] for w in data["trust_reasons"]]
 
 
 def test_px4_logs_from_v1_14_read_with_the_guessed_mapping(tmp_path):

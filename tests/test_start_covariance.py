@@ -125,9 +125,8 @@ def test_the_track_says_whether_and_where_its_start_was_widened(tmp_path) -> Non
     ("gu2007", 2, "ukf"),
     ("hoerst2010", 2, "ekf"),
     ("bearings-only-2d", 0, "ekf"),
-    pytest.param("chen-sun-1", 3, "ekf", marks=pytest.mark.xfail(
-        strict=True, reason="two valleys in the profile: the held fit jumps to a second minimum "
-                            "the local end-point search does not follow")),
+    ("chen-sun-1", 3, "ekf"),  # two valleys: the mirror image's, beyond the first's end
+    ("hurtado2008", 8, "ekf"),  # two valleys, a bump of a fortieth of a quantile between them
 ])
 def test_each_profile_end_is_the_brute_force_profiles_or_flagged(name: str, seed: int,
                                                                  tracker: str) -> None:
@@ -161,3 +160,28 @@ def test_each_profile_end_is_the_brute_force_profiles_or_flagged(name: str, seed
                 assert distance[0] == pytest.approx(distance[1], rel=0.02)
             else:  # the reference's re-fit jumped valleys: ours must be an end by itself
                 assert abs(excess(z)) <= 0.01 or (v @ z >= cap and excess(z) < 0)
+
+
+def test_a_start_beyond_another_valley_of_its_profile_says_so(tmp_path) -> None:
+    # chen-sun-1 seed 3: no elevation, the sensor on z = 0: the mirror image through it fits as
+    # well, and the profile along the position axis leaves the likelihood region and comes back
+    # into it there; the end beyond the second valley is the brute-force profile's (above), and
+    # the start says the likelihood is multi-modal along that axis, in Python, JSON and words.
+    meas = load_scenario("chen-sun-1").simulate(rng=3)
+    tr = tk.track(meas, "ekf")
+    record = start_record(tr)
+    assert any(w.multimodal for w in record.widened)
+    assert tr.extra.start["widened"] == [w.as_dict() for w in record.widened]
+    assert any(w["multimodal"] for w in tr.extra.start["widened"])
+    path = tmp_path / "cs1.csv"
+    tk.write_measurements(meas, path)
+    from typer.testing import CliRunner
+
+    from tmakit.cli import app
+
+    out = " ".join(CliRunner().invoke(app, ["track", str(path)]).output.split())
+    assert "(multi-modal)" in out
+    assert "leaves the likelihood region and comes back into it" in out
+    # a start whose profile has one valley says nothing of the kind
+    one = tk.track(load_scenario("bearings-only-2d").simulate(rng=3), "ekf")
+    assert not any(w["multimodal"] for w in one.extra.start["widened"])

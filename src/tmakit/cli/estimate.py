@@ -457,7 +457,9 @@ def answers_table(a: Any, units: str, title: str) -> Table:
         table.add_row("position ellipse", "unobservable", "", "")
     else:
         table.add_row(f"{e.level:.0%} ellipse semi-axes", f"{e.semi_major:.4g} x "
-                      f"{e.semi_minor:.4g}", "", "m")
+                      f"{e.semi_minor:.4g}" + ("" if a.position_determined
+                                               else " (not a bound: range undetermined)"),
+                      "", "m")
         table.add_row(f"{e.level:.0%} ellipse major axis (true)", f"{e.orientation_deg:.1f}",
                       "", "deg")
     return table

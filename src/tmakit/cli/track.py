@@ -420,7 +420,13 @@ def start_sentence(tr: Any) -> str:
                      f"the {w['axis']} axis x{w['factor']:.3g}"
                      + ("" if w.get("converged", True) else
                         " (its end not found to tolerance: widened beyond the limit instead)")
+                     + (" (multi-modal)" if w.get("multimodal") else "")
                      for w in s["widened"]))
+        if any(w.get("multimodal") for w in s["widened"]):
+            text += ("; along the axes marked multi-modal the profile leaves the likelihood "
+                     "region and comes back into it (the fit has another minimum there): the "
+                     "widened Gaussian spans both valleys and the gap between them, which the "
+                     "likelihood excludes, so the track may settle in either")
     check = s.get("confirmation")
     if check and check["dof"]:
         text += (f"; confirmed by the next {check['updates']} updates (NIS {check['nis']:.1f} "

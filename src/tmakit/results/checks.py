@@ -296,15 +296,32 @@ def wider_model_warning(result: object, meas: MeasurementSet) -> SanityWarning |
 
 
 def undetermined_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
-    """Return a warning when the answer leaves out quantities the data do not determine."""
-    weak = estimate_answer(result, meas).undetermined
+    """Return a warning when the answer leaves out quantities the data do not determine.
+
+    With the range undetermined, a second (``ellipse-not-a-bound``) says that the position's
+    ellipse, however small, is no bound on the truth.
+    """
+    answer = estimate_answer(result, meas)
+    weak = answer.undetermined
     if not weak:
         return []
-    return [SanityWarning("undetermined", (
+    ranged = any(w.startswith("range") for w in weak)
+    found = [SanityWarning("undetermined", (
         "the data do not determine " + ", ".join(weak) + " although the fit converged: these "
-        "are left out of the answer (shown as unobservable), and the position's ellipse is "
-        "wide. More data, or an own-ship manoeuvre across the line of sight, would pin them "
+        "are left out of the answer (shown as unobservable)"
+        + ("" if ranged else ", and the position's ellipse is wide")
+        + ". More data, or an own-ship manoeuvre across the line of sight, would pin them "
         "down"))]
+    e = answer.ellipse
+    if ranged and e is not None:
+        found.append(SanityWarning("ellipse-not-a-bound", (
+            f"the position's {e.level:.0%} ellipse ({e.semi_major:.3g} x {e.semi_minor:.3g} m) "
+            "cannot be trusted to hold the truth: it is the fit's covariance linearised at the "
+            f"estimate, and with the range from {answer.sensor} undetermined (its 1-sigma above "
+            "3 times the range) the likelihood does not close around the estimate, so the "
+            "truth may lie far outside the ellipse, at another range, however small the "
+            "ellipse is")))
+    return found
 
 
 def normalised_residuals(result: object, meas: MeasurementSet,

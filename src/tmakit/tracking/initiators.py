@@ -84,6 +84,21 @@ _PROFILE_GROWTH = 4.0
 _PROFILE_SLACK = 0.5
 _PROFILE_HALVINGS = 10
 _PROFILE_ITERATIONS = 40
+# Beyond each end the profile is checked for another valley (:func:`_valleys_beyond`) at so many
+# points, closest near the end, out to this many times the end's distance (or the Gaussian end's,
+# sqrt of the quantile, if further), again beyond each valley found, so many times; a valley's end
+# is searched for in steps at most this many times as far.
+_PROBES = 8
+_PROBE_REACH = 2.0
+_PROBE_ROUNDS = 3
+_PROBE_GROWTH = 1.25
+# A probe's fit stops after so many steps, or where its Gauss-Newton model's minimum lies more
+# than so many quantiles above the limit: a probe from the held fit's tangent is near its own
+# valley (those that found another valley in the built-in scenarios foresaw at most 2.1), one
+# from the axis in a mirror image's valley starts far from it (those foresaw up to 60).
+_PROBE_ITERATIONS = 15
+_PROBE_FAR = 3.0
+_PROBE_FAR_MIRROR = 100.0
 
 
 @dataclass(frozen=True)
@@ -230,12 +245,18 @@ class Widening:
     converged : bool
         Whether the end point was found to its tolerance; if not, the widening is to a point
         beyond the likelihood region's limit (conservative).
+    multimodal : bool
+        Whether the profile left the likelihood region and came back into it (a second valley:
+        another minimum of the fit, such as a mirror image or a ghost solution) before this end:
+        the likelihood is multi-modal along the axis, and the widened covariance spans the
+        valleys and the region between them, which the likelihood excludes.
     """
 
     axis: str
     direction: dict[str, float]
     factor: float
     converged: bool = True
+    multimodal: bool = False
 
     def as_dict(self) -> dict[str, Any]:
         """Return the JSON form.
@@ -243,10 +264,11 @@ class Widening:
         Returns
         -------
         dict
-            ``axis``, ``direction`` (unit vector by state name), ``factor``, ``converged``.
+            ``axis``, ``direction`` (unit vector by state name), ``factor``, ``converged``,
+            ``multimodal``.
         """
         return {"axis": self.axis, "direction": dict(self.direction), "factor": self.factor,
-                "converged": self.converged}
+                "converged": self.converged, "multimodal": self.multimodal}
 
 
 @dataclass(frozen=True)
@@ -333,8 +355,8 @@ class BatchStart:
             ``dof``, ``relative_position_std``, ``max_relative_std``, ``windows_tried``,
             ``nuisance`` (value and std by name), ``held_nuisance`` (chi-square by name),
             ``held_nuisance_note``, ``widened`` (the profile-likelihood ends that widened the
-            covariance: ``axis``, ``direction``, ``factor``), ``confirmation`` and
-            ``rejected``.
+            covariance: ``axis``, ``direction``, ``factor``, ``converged``, ``multimodal``),
+            ``confirmation`` and ``rejected``.
         """
         est = self.estimate
         out: dict[str, Any] = {
@@ -539,24 +561,28 @@ def likelihood_covariance(result: EstimateResult, rows: MeasurementSet, time: fl
     obs = ObservationModel(rows, result.motion, options)
     nu = (obs.nuisance_vector({n: v for n, (v, _) in result.nuisance.items()})
           if obs.n_nuisance else None)
-    ends, converged = _profile_ends(lambda z: theta + z @ scale.T, scale, np.array(ups), obs,
-                                    NoiseModel(rows), nu, quantile)
+    mirrored = "z" in result.motion.param_names and rows.mirror_plane(1e-9) is not None
+    ends, converged, multimodal = _profile_ends(lambda z: theta + z @ scale.T, scale,
+                                                np.array(ups), obs, NoiseModel(rows), nu, quantile,
+                                                mirrored=mirrored)
     wide_z, wide, widened = np.eye(len(theta)), cov, []
-    for (axis, direction), z, sure in zip(sides, ends, converged, strict=True):
+    for (axis, direction), z, sure, valleys in zip(sides, ends, converged, multimodal,
+                                                   strict=True):
         m = float(z @ np.linalg.solve(wide_z, z)) if np.all(np.isfinite(z)) else np.nan
         if np.isfinite(m) and m > quantile * LIKELIHOOD_TOLERANCE ** 2:
             wider_z = wide_z + (m / quantile - 1.0) / m * np.outer(z, z)
             wider = scale @ wider_z @ scale.T
             if np.all(np.linalg.eigvalsh(wider) > 0):  # (not lost to rounding)
                 wide_z, wide = wider_z, (wider + wider.T) / 2
-                widened.append(Widening(axis, direction, math.sqrt(m / quantile), bool(sure)))
+                widened.append(Widening(axis, direction, math.sqrt(m / quantile), bool(sure),
+                                        bool(valleys)))
     return wide, tuple(widened)
 
 
 def _profile_ends(point: Callable[[Array], Array], scale: Array, dirs: Array,
-                  obs: ObservationModel, noise: NoiseModel, nu: Array | None, quantile: float
-                  ) -> tuple[Array, NDArray[np.bool_]]:
-    """Give the end points ``(k, p)`` of the profiles up the unit ``dirs[i] @ z``, converged.
+                  obs: ObservationModel, noise: NoiseModel, nu: Array | None, quantile: float,
+                  *, mirrored: bool = False) -> tuple[Array, NDArray[np.bool_], NDArray[np.bool_]]:
+    """Give the ends ``(k, p)`` of the profiles up unit ``dirs[i] @ z``, converged, multi-modal.
 
     ``point(z)`` is theta; in ``z`` the fit's covariance is the identity.  The ends are iterated
     from ``z = 0`` together (one evaluation of the residuals and one of the Jacobians per step,
@@ -568,7 +594,8 @@ def _profile_ends(point: Callable[[Array], Array], scale: Array, dirs: Array,
     does not lower the chi-square), and the radius halves; it grows after a step whose
     chi-square the model foresaw.  An end still short after ``_PROFILE_ITERATIONS`` steps (or
     ``_PROFILE_HALVINGS`` refusals), as in a curved valley, is finished by
-    :func:`_profile_search`.
+    :func:`_profile_search`.  A local search follows one valley; the profile beyond each end is
+    then checked for another (:func:`_valleys_beyond`): multi-modal, the ends beyond one.
     """
     k, p = dirs.shape
 
@@ -615,18 +642,138 @@ def _profile_ends(point: Callable[[Array], Array], scale: Array, dirs: Array,
     for i in np.flatnonzero(~converged):
         z[i], converged[i] = _profile_search(residuals, jacobians, dirs[i], z[i], limit, quantile,
                                              cap)
-    return z, converged
+    multimodal = _valleys_beyond(residuals, jacobians, dirs, z, converged, limit, quantile, cap,
+                                 mirrored)
+    return z, converged, multimodal
+
+
+def _valleys_beyond(residuals: Callable[[Array], Array], jacobians: Callable[[Array], Array],
+                    dirs: Array, z: Array, converged: NDArray[np.bool_], limit: float,
+                    quantile: float, cap: float, mirrored: bool) -> NDArray[np.bool_]:
+    """Move each end ``z[i]`` out past any further valley of its profile (in place).
+
+    A local search stops at the end of the valley it started in; where the fit has another
+    minimum (a mirror image, a ghost solution) the profile may fall back inside the limit
+    further out: the likelihood region along the axis is then not one interval.  The profile is
+    fitted at ``_PROBES`` points beyond the end, ``t + (reach - t) (j / _PROBES)**2``, out to
+    ``reach``, ``_PROBE_REACH`` times the end's distance ``t`` or the Gaussian end's
+    (``sqrt(quantile)``), whichever is further, each from the point on the axis
+    (:func:`_held_fits`); where one lies inside the limit, the end is searched for again from
+    the outermost such point (:func:`_profile_search`) and the profile beyond the new end
+    checked in turn, ``_PROBE_ROUNDS`` times at most.  A valley narrower than the probes'
+    spacing (1.6 % of ``reach - t`` next to the end, 23 % at ``reach``) may be missed.  Gives
+    whether each end moved past another valley.
+    """
+    multimodal = np.zeros(len(dirs), dtype=bool)
+    todo = np.ones(len(dirs), dtype=bool)
+    for _ in range(_PROBE_ROUNDS):
+        owners, ts = [], []
+        for i in np.flatnonzero(todo):
+            up = max(float(dirs[i] @ z[i]), math.sqrt(quantile) / _PROFILE_GROWTH)
+            reach = min(_PROBE_REACH * max(up, math.sqrt(quantile)), cap)
+            if reach > up:
+                ts += (up + (reach - up) * (np.arange(1, _PROBES + 1) / _PROBES) ** 2).tolist()
+                owners += [i] * _PROBES
+        if not owners:
+            break
+        own, t = np.array(owners), np.array(ts)
+        jac = jacobians(z)
+        hess = jac.transpose(0, 2, 1) @ jac
+        tangent = _solve_each(hess, dirs)  # (the way the held fit moves as dirs @ z grows)
+        tangent /= np.einsum("kp,kp->k", tangent, dirs)[:, None]
+        starts = z[own] + (t - np.einsum("mp,mp->m", z[own], dirs[own]))[:, None] * tangent[own]
+        far = np.full(len(own), _PROBE_FAR)
+        if mirrored:
+            own, t = np.concatenate([own, own]), np.concatenate([t, t])
+            starts = np.concatenate([starts, t[len(starts):, None] * dirs[own[len(starts):]]])
+            far = np.concatenate([far, np.full(len(far), _PROBE_FAR_MIRROR)])
+        order = np.lexsort((t, own))
+        own, t = own[order], t[order]
+        points, costs = _held_fits(residuals, jacobians, dirs[own], starts[order], limit,
+                                   quantile, far[order])
+        todo[:] = False
+        for i in np.unique(own[costs < limit]):
+            j = np.flatnonzero((own == i) & (costs < limit))[-1]  # (the outermost)
+            z[i], converged[i] = _profile_search(residuals, jacobians, dirs[i], points[j], limit,
+                                                 quantile, cap, _PROBE_GROWTH)
+            if not converged[i] and j + 1 < len(own) and own[j + 1] == i:
+                z[i] = points[j + 1]  # (the next point out, beyond the limit: conservative)
+            multimodal[i] = todo[i] = True
+    return multimodal
+
+
+def _held_fits(residuals: Callable[[Array], Array], jacobians: Callable[[Array], Array],
+               dirs: Array, z: Array, limit: float, quantile: float, far: Array
+               ) -> tuple[Array, Array]:
+    """Fit each ``z[i]`` with ``dirs[i] @ z`` held, until inside ``limit``; give them, their costs.
+
+    Levenberg-Marquardt steps (Nocedal & Wright 2006, ch. 10) in the complement of each
+    direction, all points together; a point stops once its chi-square is below ``limit`` (a
+    valley there), or when a Gauss-Newton step foresees less than ``_PROFILE_ACCURACY``
+    quantiles of decrease in a step shorter than ``_PROFILE_ACCURACY`` of the point's distance
+    (a minimum above the limit; a long step that foresees little crosses a flat stretch), or
+    foresees a minimum more than ``far[i]`` quantiles above the limit, or after
+    ``_PROBE_ITERATIONS`` steps.
+    """
+    basis = np.linalg.svd(dirs[:, None, :])[2][:, 1:, :]  # (m, p - 1, p): the held-free moves
+    z = np.array(z, dtype=np.float64)
+    res = residuals(z)
+    cost = np.einsum("mn,mn->m", res, res)
+    active = np.isfinite(cost) & (cost >= limit)
+    jac, stale = np.zeros((*res.shape, z.shape[1])), np.ones(len(z), dtype=bool)
+    damping = np.full(len(z), 1e-3)
+    for _ in range(_PROBE_ITERATIONS):
+        idx = np.flatnonzero(active)
+        if not len(idx):
+            break
+        if stale[idx].any():
+            jac[idx[stale[idx]]] = jacobians(z[idx[stale[idx]]])
+            stale[idx] = False
+        j, b = jac[idx], basis[idx]
+        grad = (b @ (res[idx][:, None, :] @ j)[:, 0, :, None])[..., 0]
+        hess = b @ (j.transpose(0, 2, 1) @ j) @ b.transpose(0, 2, 1)
+        gn = _solve_each(hess, grad)
+        length = np.sqrt(np.einsum("aq,aq->a", gn, gn))
+        dist = np.sqrt(np.einsum("ap,ap->a", z[idx], z[idx]))
+        foreseen = np.einsum("aq,aq->a", grad, gn)
+        flat = ~(((foreseen > _PROFILE_ACCURACY * quantile) | (length > _PROFILE_ACCURACY * dist))
+                 & (cost[idx] - foreseen <= limit + far[idx] * quantile))  # (or not finite)
+        active[idx[flat]] = False
+        idx, grad, hess = idx[~flat], grad[~flat], hess[~flat]
+        if not len(idx):
+            break
+        diag = np.einsum("aqq->aq", hess)
+        step = -_solve_each(hess + (damping[idx] * diag.max(axis=1))[:, None, None]
+                            * np.eye(len(grad[0])), grad)
+        trial = z[idx] + np.einsum("aq,aqp->ap", step, basis[idx])
+        tres = residuals(trial)
+        new = np.einsum("an,an->a", tres, tres)
+        ok = np.isfinite(new) & (new < cost[idx])
+        damping[idx] = np.where(ok, damping[idx] / 10, damping[idx] * 10)
+        good = idx[ok]
+        # (a short step that lowered the chi-square by less than the accuracy: at a minimum)
+        short = np.sqrt(np.einsum("aq,aq->a", step[ok], step[ok])) <= (
+            _PROFILE_ACCURACY * dist[~flat][ok])
+        small = short & (cost[good] - new[ok] <= _PROFILE_ACCURACY * quantile)
+        z[good], res[good], cost[good], stale[good] = trial[ok], tres[ok], new[ok], True
+        active[good[(new[ok] < limit) | small]] = False
+        # (a refused step whose model foresaw less than the accuracy: damping more will not do)
+        hopeless = -(2 * np.einsum("aq,aq->a", grad, step)
+                     + np.einsum("aq,aqr,ar->a", step, hess, step)) <= _PROFILE_ACCURACY * quantile
+        active[idx[(~ok & hopeless) | (damping[idx] > 1e8)]] = False
+    return z, cost
 
 
 def _profile_search(residuals: Callable[[Array], Array], jacobians: Callable[[Array], Array],
-                    direction: Array, z: Array, limit: float, quantile: float, cap: float
-                    ) -> tuple[Array, bool]:
+                    direction: Array, z: Array, limit: float, quantile: float, cap: float,
+                    growth: float = _PROFILE_GROWTH) -> tuple[Array, bool]:
     """Finish an end that Gauss-Newton left short: a bracketed root of the profile's chi-square.
 
     The profile at ``t = direction @ z`` is the fit with that coordinate held (Levenberg-
     Marquardt over the rest, from the fit at the bracket's inner end); its end is where it
     reaches ``limit``, bracketed by points inside and beyond the limit (from the Gauss-Newton
-    point up past the secant's crossing, or down to ``z = 0``) and found by
+    point up past the secant's crossing, at most ``growth`` times as far a step, or down to
+    ``z = 0``) and found by
     regula falsi (the Illinois variant) to within ``_PROFILE_ACCURACY`` of a quantile in
     chi-square.  Gives the end and whether it converged; if not (a fit failed, or the profile
     jumps across the limit between two valleys), the bracket's outer end: beyond the limit, so
@@ -660,9 +807,9 @@ def _profile_search(residuals: Callable[[Array], Array], jacobians: Callable[[Ar
             (t0, _, e0), inner = inner, (t, point, value)
             if t >= cap or value > -tolerance:
                 return point, True  # (at the limit, or inside it up to the cap)
-            # up to a little beyond the secant's crossing, 5 % to _PROFILE_GROWTH times as far
+            # up to a little beyond the secant's crossing, 5 % to `growth` times as far
             guess = t - 1.2 * value * (t - t0) / (value - e0) if value > e0 else math.inf
-            t = min(max(guess, 1.05 * t), _PROFILE_GROWTH * t, cap)
+            t = min(max(guess, 1.05 * t), growth * t, cap)
             point, value = fit(t, point)
         high = (t, point, value)
         outer = (t, point)
@@ -691,6 +838,17 @@ def _profile_search(residuals: Callable[[Array], Array], jacobians: Callable[[Ar
     except (FloatingPointError, np.linalg.LinAlgError):
         pass
     return outer[1], False
+
+
+def _solve_each(a: Array, b: Array) -> Array:
+    """Solve ``a[i] x[i] = b[i]`` for a stack, by the pseudo-inverse where ``a[i]`` is singular."""
+    try:
+        return np.asarray(np.linalg.solve(a, b[..., None])[..., 0])
+    except np.linalg.LinAlgError:
+        x = np.full_like(b, np.nan)
+        for i in np.flatnonzero(np.isfinite(a).all(axis=(1, 2))):
+            x[i] = np.linalg.lstsq(a[i], b[i], rcond=None)[0]
+        return x
 
 
 def _end_steps(res: Array, jac: Array, dirs: Array, z: Array, cost: Array, limit: float,
