@@ -143,12 +143,12 @@ class GaussNewtonModel:
         """Build a single run's model as :meth:`at` does, in 2-D arrays (fewer calls)."""
         scale = np.sqrt(np.maximum(jtj.diagonal(), 1e-300))  # (the same bits as in :meth:`at`)
         try:
-            evals, v = eigh(jtj / np.multiply.outer(scale, scale))
+            evals, v = eigh(jtj / (scale[:, None] * scale))
         except np.linalg.LinAlgError:
             return None
         w = np.maximum(evals, 1e-12 * float(evals[-1]))  # floored as in :meth:`at`
         vg = (grad / scale).dot(v)
-        small = bool((np.abs(grad) <= gtol * math.sqrt(2.0 * cost) * scale).all())
+        small = all((np.abs(grad) <= gtol * math.sqrt(2.0 * cost) * scale).tolist())
         return cls(w[None], v[None], vg[None], scale[None],
                    np.array([0.5 * vg.dot(vg / w)]), np.array([small]), jtj[None], evals[None])
 

@@ -398,7 +398,9 @@ class VarProProblem:
                 cost[0] = np.inf  # nan (no prediction) -> inf
         else:
             cost = np.where(cost < np.inf, cost, np.inf)  # nan (no prediction) -> inf
-        return Evaluation(theta, np.array(nu, dtype=float), r, cost, jac, normal)
+        if nu is nu_star and not (isinstance(nu, np.ndarray) and nu.size == 0):
+            nu = np.array(nu, dtype=float)  # (eliminated: already a new array)
+        return Evaluation(theta, nu, r, cost, jac, normal)
 
     def _project(self, lin: Linearisation, nu_star: Array, at: Array, r: Array,
                  with_jacobian: bool) -> tuple[Array, Array, Array | None]:
