@@ -781,18 +781,30 @@ def _profile_search(residuals: Callable[[Array], Array], jacobians: Callable[[Ar
     """
     # (imported here: scipy.optimize takes 0.1-0.2 s to import, and few starts come here)
     from scipy.linalg import null_space
-    from scipy.optimize import least_squares
+    from scipy.optimize import leastsq
 
     basis = null_space(direction[None])
 
     def fit(t: float, start: Array) -> tuple[Array, float]:
-        sol = least_squares(lambda w: residuals(t * direction + basis @ w), basis.T @ start,
-                            jac=lambda w: jacobians(t * direction + basis @ w) @ basis,
-                            method="lm", xtol=1e-6, ftol=1e-6)
-        end = t * direction + basis @ sol.x
-        r = residuals(end)
+        # MINPACK's lmder as least_squares(method="lm") calls it (its default gtol and
+        # max_nfev, x_scale "jac"), without that wrapper's cost per call; it asks for the
+        # residuals at its start twice, so the last ones are kept
+        last: list[tuple[bytes, Array]] = []
+
+        def res(w: Array) -> Array:
+            key = w.tobytes()
+            if not last or last[0][0] != key:
+                last[:] = [(key, residuals(t * direction + basis @ w))]
+            return last[0][1]
+
+        w, _, _, _, status = leastsq(res, basis.T @ start,
+                                     Dfun=lambda w: jacobians(t * direction + basis @ w) @ basis,
+                                     full_output=True, xtol=1e-6, ftol=1e-6, gtol=1e-8,
+                                     maxfev=100 * basis.shape[1])
+        end = t * direction + basis @ w
+        r = res(w)
         value = float(r @ r) - limit
-        if sol.status <= 0 or not math.isfinite(value):
+        if status not in (1, 2, 3, 4) or not math.isfinite(value):
             raise FloatingPointError
         return end, value
 
