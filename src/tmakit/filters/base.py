@@ -255,13 +255,18 @@ class TrackingFilter(ABC):
         self.log_likelihood += info.log_likelihood
         return info
 
-    def run(self, meas: MeasurementSet) -> Track:
+    def run(self, meas: MeasurementSet, *, after: float | None = None) -> Track:
         """Predict to, and update with, each distinct measurement time of ``meas`` in turn.
 
         Parameters
         ----------
         meas : MeasurementSet
             The measurements, none earlier than the filter's time.
+        after : float, optional
+            Use only the measurement times later than this (s, by more than
+            :data:`TIME_TOLERANCE`), as ``run(meas.take(meas.time > after + TIME_TOLERANCE))``
+            would, with ``meas`` prepared once for every filter run on it (a filter started
+            part way through a set).
 
         Returns
         -------
@@ -277,16 +282,20 @@ class TrackingFilter(ABC):
         """
         if not isinstance(meas, MeasurementSet):
             raise TypeError(f"meas must be a MeasurementSet, got {type(meas).__name__}")
-        if len(meas) and np.min(meas.time) < self.time - TIME_TOLERANCE:
-            raise ValueError(f"measurements start at t={np.min(meas.time)} s, before the "
-                             f"filter's prior time t={self.time} s")
         prepared = prepared_for(meas, self.dim, self.options, self.nuisance)
+        total = len(prepared)
+        earliest = prepared.time[prepared.bounds[:-1]] if total else prepared.time  # per update
+        first = 0 if after is None else int(np.searchsorted(
+            earliest, float(after) + TIME_TOLERANCE, side="right"))
+        if first < total and earliest[first] < self.time - TIME_TOLERANCE:
+            raise ValueError(f"measurements start at t={earliest[first]} s, before the "
+                             f"filter's prior time t={self.time} s")
         with one_thread(self.single_blas_thread):
             if not self._plain_interface():
                 return self.run_groups((float(prepared.times[k]), prepared.rows(k))
-                                       for k in range(len(prepared)))
+                                       for k in range(first, len(prepared)))
             rec = Recorder(2 * self.dim)
-            k, total = 0, len(prepared)
+            k = first
             while k < total:
                 stop = self._run_block(prepared, k, rec)
                 if stop is not None:

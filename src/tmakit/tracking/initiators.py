@@ -1382,7 +1382,7 @@ class BatchInitiator(Initiator):
                                                std=np.sqrt(np.diag(wide))), w.time)
             mean, cov, nuisance = filt.state, filt.covariance, dict(filt.nuisance)
             rest = meas.take(meas.time > w.time + 1e-9)
-            after = filt.run(rest)
+            after = filt.run(meas, after=w.time)  # (meas prepared once for every start)
             check = _confirmation(after, w.window)
             # (the whole data as window leaves no updates to test: p = 1, accepted)
             if not self.confirm or check.p_value >= self.confirm_p_value:
