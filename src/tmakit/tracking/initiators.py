@@ -779,32 +779,15 @@ def _profile_search(residuals: Callable[[Array], Array], jacobians: Callable[[Ar
     jumps across the limit between two valleys), the bracket's outer end: beyond the limit, so
     widening to it is conservative.
     """
-    # (imported here: scipy.optimize takes 0.1-0.2 s to import, and few starts come here)
-    from scipy.linalg import null_space
-    from scipy.optimize import leastsq
+    from scipy.linalg import null_space  # (here: few starts come here)
 
     basis = null_space(direction[None])
 
     def fit(t: float, start: Array) -> tuple[Array, float]:
-        # MINPACK's lmder as least_squares(method="lm") calls it (its default gtol and
-        # max_nfev, x_scale "jac"), without that wrapper's cost per call; it asks for the
-        # residuals at its start twice, so the last ones are kept
-        last: list[tuple[bytes, Array]] = []
-
-        def res(w: Array) -> Array:
-            key = w.tobytes()
-            if not last or last[0][0] != key:
-                last[:] = [(key, residuals(t * direction + basis @ w))]
-            return last[0][1]
-
-        w, _, _, _, status = leastsq(res, basis.T @ start,
-                                     Dfun=lambda w: jacobians(t * direction + basis @ w) @ basis,
-                                     full_output=True, xtol=1e-6, ftol=1e-6, gtol=1e-8,
-                                     maxfev=100 * basis.shape[1])
-        end = t * direction + basis @ w
-        r = res(w)
+        end = _held_fit(residuals, jacobians, t * direction, basis, start)
+        r = residuals(end)
         value = float(r @ r) - limit
-        if status not in (1, 2, 3, 4) or not math.isfinite(value):
+        if not math.isfinite(value):
             raise FloatingPointError
         return end, value
 
@@ -861,6 +844,35 @@ def _solve_each(a: Array, b: Array) -> Array:
         for i in np.flatnonzero(np.isfinite(a).all(axis=(1, 2))):
             x[i] = np.linalg.lstsq(a[i], b[i], rcond=None)[0]
         return x
+
+
+def _held_fit(residuals: Callable[[Array], Array], jacobians: Callable[[Array], Array],
+              held: Array, basis: Array, start: Array) -> Array:
+    """Give ``held + basis @ w`` at the least-squares ``w``, from ``start``'s (Levenberg-Marquardt).
+
+    MINPACK's lmder as ``least_squares(method="lm")`` calls it (its default ``gtol`` and
+    ``max_nfev``, ``x_scale="jac"``: the same fit, bit for bit) without that wrapper's cost per
+    call, the residuals at the start (asked for twice) computed once.  Raises
+    ``FloatingPointError`` when it does not converge.
+    """
+    # (imported here: scipy.optimize takes 0.1-0.2 s to import, and few starts come here)
+    from scipy.optimize import leastsq
+
+    last: list[tuple[bytes, Array]] = []
+
+    def res(w: Array) -> Array:
+        key = w.tobytes()
+        if not last or last[0][0] != key:
+            last[:] = [(key, residuals(held + basis @ w))]
+        return last[0][1]
+
+    w, _, _, _, status = leastsq(res, basis.T @ start,
+                                 Dfun=lambda w: jacobians(held + basis @ w) @ basis,
+                                 full_output=True, xtol=1e-6, ftol=1e-6, gtol=1e-8,
+                                 maxfev=100 * basis.shape[1])
+    if status not in (1, 2, 3, 4):
+        raise FloatingPointError
+    return np.asarray(held + basis @ w)
 
 
 def _end_steps(res: Array, jac: Array, dirs: Array, z: Array, cost: Array, limit: float,
