@@ -784,8 +784,7 @@ def _profile_search(residuals: Callable[[Array], Array], jacobians: Callable[[Ar
     basis = null_space(direction[None])
 
     def fit(t: float, start: Array) -> tuple[Array, float]:
-        end = _held_fit(residuals, jacobians, t * direction, basis, start)
-        r = residuals(end)
+        end, r = _held_fit(residuals, jacobians, t * direction, basis, start)
         value = float(r @ r) - limit
         if not math.isfinite(value):
             raise FloatingPointError
@@ -847,13 +846,13 @@ def _solve_each(a: Array, b: Array) -> Array:
 
 
 def _held_fit(residuals: Callable[[Array], Array], jacobians: Callable[[Array], Array],
-              held: Array, basis: Array, start: Array) -> Array:
-    """Give ``held + basis @ w`` at the least-squares ``w``, from ``start``'s (Levenberg-Marquardt).
+              held: Array, basis: Array, start: Array) -> tuple[Array, Array]:
+    """Give ``held + basis @ w`` at the least-squares ``w`` from ``start``'s, and its residuals.
 
-    MINPACK's lmder as ``least_squares(method="lm")`` calls it (its default ``gtol`` and
-    ``max_nfev``, ``x_scale="jac"``: the same fit, bit for bit) without that wrapper's cost per
-    call, the residuals at the start (asked for twice) computed once.  Raises
-    ``FloatingPointError`` when it does not converge.
+    Levenberg-Marquardt: MINPACK's lmder as ``least_squares(method="lm")`` calls it (its
+    default ``gtol`` and ``max_nfev``, ``x_scale="jac"``: the same fit, bit for bit) without
+    that wrapper's cost per call, the residuals at a point asked for twice computed once.
+    Raises ``FloatingPointError`` when it does not converge.
     """
     # (imported here: scipy.optimize takes 0.1-0.2 s to import, and few starts come here)
     from scipy.optimize import leastsq
@@ -872,7 +871,7 @@ def _held_fit(residuals: Callable[[Array], Array], jacobians: Callable[[Array], 
                                  maxfev=100 * basis.shape[1])
     if status not in (1, 2, 3, 4):
         raise FloatingPointError
-    return np.asarray(held + basis @ w)
+    return held + basis @ w, res(w)
 
 
 def _end_steps(res: Array, jac: Array, dirs: Array, z: Array, cost: Array, limit: float,
