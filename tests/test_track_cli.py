@@ -34,7 +34,7 @@ def run(*args: str):
 
 
 def filter_args(name: str) -> list[str]:
-    # The IMM's and MM-PF's default turn models (0.375..3 deg/s) are for targets that turn;
+    # The IMM's and MM-PF's default turn models (0.75..3, 0.375..3 deg/s) are for targets that turn;
     # this one runs straight at a few m/s, and its bearings alone cannot rule them out, so the
     # track stays wider: a user sets the manoeuvre models to the target.
     return ["--filter", name] + (["--particles", PARTICLES, "--seed", "3"]

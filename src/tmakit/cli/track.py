@@ -80,8 +80,9 @@ ModelQOption = Annotated[str | None, typer.Option(
 TurnRateOption = Annotated[str | None, typer.Option(
     "--turn-rate", help="--filter imm, mmpf: turn rates (deg/s, comma-separated; counter-clockwise "
                         "positive, a right turn negative) of coordinated-turn models added "
-                        "after the --model-q ones; default +-0.375,0.75,1.5,3 (a slow ship's "
-                        "turn to an aircraft's standard-rate turn); none for no turn model")]
+                        "after the --model-q ones; default +-0.75,1.5,3 for imm, "
+                        "+-0.375,0.75,1.5,3 for mmpf (a ship's turn to an aircraft's "
+                        "standard-rate turn); none for no turn model")]
 RateNoiseOption = Annotated[str | None, typer.Option(
     "--turn-rate-noise", help="--filter imm: add a coordinated turn whose rate is estimated "
                               "(Li & Jilkov 2003), its rate's random walk in deg/s per "
@@ -92,8 +93,8 @@ NuisanceOption = Annotated[str | None, typer.Option(
     help="known nuisance values with --prior, e.g. carrier=9.4e9 (Hz, dBW)")]
 TransitionOption = Annotated[str | None, typer.Option(
     "--transition", help="--filter imm, mmpf: the Markov matrix per step, rows (from) separated "
-                         "by ';', e.g. 0.99,0.01;0.01,0.99 (default: each model held 500 s on "
-                         "average, whatever the step)")]
+                         "by ';', e.g. 0.99,0.01;0.01,0.99 (default: each model held 1500 s (imm), "
+                         "500 s (mmpf) on average, whatever the step)")]
 SmoothOption = Annotated[bool, typer.Option(
     "--smooth", help="also give the smoothed track (Rauch-Tung-Striebel for the Gaussian "
                      "filters and the Gaussian sum; two-filter for imm; backward simulation for "

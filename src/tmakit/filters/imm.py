@@ -33,10 +33,12 @@ from .particle import ParticleFilter, ParticleStep
 from .track import Recorder, Track, UpdateInfo
 
 #: Turn rates of the default coordinated-turn models (deg/s), each taken to the left and to the
-#: right: a bank in steps of 2 from a large ship's slow turn (0.375 deg/s) to an aircraft's
-#: standard-rate turn (3 deg/s), so that any turn rate between 0.27 and 4.2 deg/s is within a
-#: factor sqrt(2) of a model's (docs/tracking.md, "the model bank").
-TURN_RATES_DEG = (0.375, 0.75, 1.5, 3.0)
+#: right: a bank in steps of 2 up to an aircraft's standard-rate turn (3 deg/s), so that any
+#: turn rate between 0.53 and 4.2 deg/s is within a factor sqrt(2) of a model's; a slower turn
+#: is followed by mixing the straight model and the 0.75 deg/s ones. No 0.375 deg/s model: with
+#: bearings of a few degrees it is barely told from the straight model, and after a turn it held
+#: the probability on the straight leg for minutes (docs/tracking.md, "the model bank").
+TURN_RATES_DEG = (0.75, 1.5, 3.0)
 #: Acceleration std of the coordinated-turn models (m/s^2): small, since a turn between two of
 #: the bank's rates is followed by mixing the two models (0.15 measured no better on
 #: hoerst2010, docs/tracking.md).
@@ -47,10 +49,18 @@ TURN_Q = 0.05
 RATE_NOISE = None
 RATE_STD = math.radians(1.5)
 #: Mean time (s) the target holds one motion, a straight leg or a turn, before it changes to
-#: another (any other alike): legs and turns of minutes, as a contact is tracked for tens of
-#: minutes. The Markov chain is in continuous time: its matrix for a step follows from the
-#: step's length (:class:`MarkovChain`).
-SOJOURN = 500.0
+#: another (any other alike): 25 minutes, as a contact's legs last tens of minutes. A shorter
+#: stay refreshes the straight model from the turn models after a turn has ended, and with them
+#: their error (500 s measured 1.7-2.1x the batch fit at the final time on hoerst2010, 1,500 s
+#: 1.4x; docs/tracking.md, "the switches"). The Markov chain is in continuous time: its matrix
+#: for a step follows from the step's length (:class:`MarkovChain`).
+SOJOURN = 1500.0
+#: The multiple-model particle filter's default turn rates (deg/s, to the left and to the right)
+#: and mean stay (s): the bank and stay it was measured with (docs/tracking.md); the IMM's
+#: above were re-tuned for the IMM alone, and on the MM-PF smoother's test run they made the
+#: smoothed track worse than the filtered one.
+MMPF_TURN_RATES_DEG = (0.375, 0.75, 1.5, 3.0)
+MMPF_SOJOURN = 500.0
 #: The batch start's position quality (std over range) for a multiple-model filter: a range
 #: error at the start is, for bearings, explained by a turn model instead of being corrected.
 START_RELATIVE_STD = 0.1
@@ -305,7 +315,8 @@ class MultipleModelParticleFilter(ParticleFilter):
     mean, covariance, time
         The Gaussian prior of the first cloud, as for :class:`ParticleFilter` (m, m/s; s).
     model_q, transition, turn_rates, turn_q, sojourn, probabilities
-        The models and their Markov chain, as for :class:`InteractingMultipleModel`.
+        The models and their Markov chain, as for :class:`InteractingMultipleModel`, but by
+        default the turns of :data:`MMPF_TURN_RATES_DEG` and the stay :data:`MMPF_SOJOURN`.
     **kwargs
         As for :class:`ParticleFilter` (``particles``, ``rng``, ``q``, ``dynamics``, ...).
 
@@ -326,10 +337,11 @@ class MultipleModelParticleFilter(ParticleFilter):
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  model_q: Sequence[float] = (), transition: ArrayLike | None = None,
                  turn_rates: Sequence[float] | None = None, turn_q: float = TURN_Q,
-                 sojourn: float = SOJOURN,
+                 sojourn: float = MMPF_SOJOURN,
                  probabilities: ArrayLike | None = None, **kwargs: Any) -> None:
-        extra, rates, self.chain, self._mu0 = markov_chain(model_q, transition, turn_rates,
-                                                           turn_q, sojourn, probabilities)
+        extra, rates, self.chain, self._mu0 = markov_chain(
+            model_q, transition, turn_rates, turn_q, sojourn, probabilities,
+            default_rates_deg=MMPF_TURN_RATES_DEG)
         self.model_q = tuple(extra)
         self._switch = self.chain.matrix(0.0)
         super().__init__(mean, covariance, time, **kwargs)
@@ -428,14 +440,18 @@ class LabelledStep(ParticleStep):
 
 def markov_chain(model_q: Sequence[float], transition: ArrayLike | None,
                  turn_rates: Sequence[float] | None, turn_q: float, sojourn: float,
-                 probabilities: ArrayLike | None, rate_noise: float | None = None
+                 probabilities: ArrayLike | None, rate_noise: float | None = None,
+                 default_rates_deg: Sequence[float] = TURN_RATES_DEG
                  ) -> tuple[list[float], list[float], MarkovChain, Array]:
-    """Check the model options; give the extra q's, turn rates, Markov chain and prior."""
+    """Check the model options; give the extra q's, turn rates, Markov chain and prior.
+
+    Without ``turn_rates``, the turns of ``default_rates_deg`` (deg/s) to the left and right.
+    """
     extra = [float(v) for v in np.atleast_1d(np.asarray(model_q, dtype=float))]
     if not all(math.isfinite(v) and v >= 0 for v in extra):
         raise ValueError(f"model_q must be accelerations >= 0 (m/s^2); got {extra}")
     if turn_rates is None:
-        turn_rates = [math.radians(s * v) for v in TURN_RATES_DEG for s in (1.0, -1.0)]
+        turn_rates = [math.radians(s * v) for v in default_rates_deg for s in (1.0, -1.0)]
     rates = [float(v) for v in np.atleast_1d(np.asarray(turn_rates, dtype=float))]
     if not all(math.isfinite(v) and v != 0 for v in rates):
         raise ValueError(f"turn_rates must be finite and != 0 (rad/s); got {rates}")
@@ -701,6 +717,7 @@ def _backward_update(history: ModelHistory, group: MeasurementGroup | None, mean
     return post / post.sum() if post.sum() > 0 else mu
 
 
-__all__ = ["BACKWARD_INFLATE", "SOJOURN", "START_RELATIVE_STD", "TURN_Q", "TURN_RATES_DEG",
+__all__ = ["BACKWARD_INFLATE", "MMPF_SOJOURN", "MMPF_TURN_RATES_DEG", "SOJOURN",
+           "START_RELATIVE_STD", "TURN_Q", "TURN_RATES_DEG",
            "InteractingMultipleModel", "MarkovChain", "ModelHistory", "ModelStep",
            "MultipleModelParticleFilter", "imm_smooth", "models_of"]
