@@ -161,9 +161,7 @@ def one_run(ss: np.random.SeedSequence, names: tuple[str, ...], settings: dict[s
         out["inside"][name] = np.einsum("ki,kij,kj->k", d,
                                         np.linalg.inv(tr.covariances[keep, :2, :2]), d) < CHI2_95
         out["final"][name] = float(e[-1] ** 2)
-        ok = np.isfinite(tr.nis)
-        out["diverged"][name] = nis_verdict(float(np.sum(tr.nis[ok])),
-                                            int(np.sum(tr.dof[ok]))).startswith(LARGER)
+        out["diverged"][name] = nis_verdict(tr).startswith(LARGER)
     if not args.no_batch:
         fit = tk.estimate(meas, "curvilinear:2")
         t_end = np.array([meas.time.max()])
