@@ -393,3 +393,24 @@ if __name__ == "__main__":
         for reason in reasons:
             print(f"    not run: {reason}")
     print(f"{'total':24s} {totals[0]:18d} {totals[1]:9d}   {totals[2]:15d} {totals[3]:9d}")
+
+
+def test_the_forked_tma_writes_and_ends_as_its_own_process_does(tma_socket, tmp_path):
+    """Output redirected to a file, an error's message and exit status, standard input."""
+    if tma_socket is None:
+        pytest.skip("TMAKIT_DOCS_TMA=process: every command is its own process already")
+    script = ("tma scenarios > list.txt\nstatus=0\ntma estimate missing.csv 2> err.txt "
+              "|| status=$?\necho $status > status.txt\n"
+              "printf 'time,sensor\\n1,a\\n' | tma track --follow - --format csv "
+              "--max-updates 1 > stdin.txt 2> /dev/null\n")
+    out = {}
+    for mode, socket in (("forked", tma_socket), ("process", None)):
+        (tmp_path / mode).mkdir()
+        run_shell(Block(tmp_path / "t.md", 1, "bash", script, None), script, tmp_path / mode,
+                  socket)
+        out[mode] = {name: (tmp_path / mode / name).read_text()
+                     for name in ("list.txt", "err.txt", "status.txt", "stdin.txt")}
+    assert out["forked"] == out["process"]
+    assert out["forked"]["status.txt"].strip() == "2" and "missing.csv" in out["forked"]["err.txt"]
+    assert "gu2007" in out["forked"]["list.txt"]
+    assert out["forked"]["stdin.txt"] == "standard input ended: 0 update(s)\n"
