@@ -47,7 +47,13 @@ def run_client(path: str, args: list[str]) -> None:
 
 
 def serve(path: str) -> None:
-    """Import the command, then fork one supervisor a connection until SIGTERM."""
+    """Import the command, then fork one supervisor a connection until SIGTERM.
+
+    The server also ends when its standard input ends: the test process that started it with
+    a pipe there has gone, so no server outlives a killed run.
+    """
+    import selectors
+
     import tmakit.cli  # noqa: F401  (the command and what it imports on every run)
 
     for name in ("numpy", "scipy.linalg", "scipy.optimize", "scipy.stats", "pandas", "numba",
@@ -59,7 +65,10 @@ def serve(path: str) -> None:
 
     def stop(_signum, _frame):
         for pid in supervisors:  # waited for: their CPU counts in the suite's
-            os.waitpid(pid, 0)
+            try:
+                os.waitpid(pid, 0)
+            except ChildProcessError:
+                pass
         os._exit(0)
 
     signal.signal(signal.SIGTERM, stop)
@@ -67,7 +76,15 @@ def serve(path: str) -> None:
         listener.bind(path)
         listener.listen(8)
         print("ready", flush=True)
+        ready = selectors.DefaultSelector()
+        ready.register(listener, selectors.EVENT_READ)
+        ready.register(sys.stdin.fileno(), selectors.EVENT_READ)
         while True:
+            events = [key.fileobj for key, _ in ready.select()]
+            if sys.stdin.fileno() in events and not os.read(sys.stdin.fileno(), 512):
+                stop(None, None)
+            if listener not in events:
+                continue
             conn, _ = listener.accept()
             pid = os.fork()
             if pid == 0:

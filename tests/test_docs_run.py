@@ -239,7 +239,7 @@ def tma_socket(tmp_path_factory):
     path = folder / "socket"
     with open(folder / "stderr", "w+") as err:
         server = subprocess.Popen([sys.executable, str(FORKED_TMA), "serve", str(path)],
-                                  cwd=folder, env=shell_env(), stdin=subprocess.DEVNULL,
+                                  cwd=folder, env=shell_env(), stdin=subprocess.PIPE,
                                   stdout=subprocess.PIPE, stderr=err, text=True)
         try:
             if server.stdout.readline().strip() != "ready":
@@ -248,7 +248,7 @@ def tma_socket(tmp_path_factory):
                 pytest.fail(f"the forked tma server did not start:\n{err.read()[-3000:]}")
             yield path
         finally:
-            server.terminate()
+            server.stdin.close()  # it ends when its input ends, once its commands have ended
             try:
                 server.wait(timeout=120)
             except subprocess.TimeoutExpired:
