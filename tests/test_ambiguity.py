@@ -8,6 +8,7 @@ JSON, and the legs found within one fix with no false turn on a noisy straight r
 
 from __future__ import annotations
 
+import functools
 import json
 import sys
 from pathlib import Path
@@ -29,14 +30,27 @@ DATA = Path(__file__).parent / "data" / "debrief" / "asset_ambig"
 PAIR = [str(DATA / "Ambig_cuts_TA.rep"), str(DATA / "Ambig_tracks2.rep")]
 
 
+@functools.cache
+def run(seed: int):
+    """Seeded run ``seed`` of the benchmark: the set, each cut's true side, the turn's end."""
+    return bench.simulate(np.random.default_rng([7, seed]))
+
+
+@functools.cache
+def resolved(seed: int):
+    """``tk.resolve_ambiguity`` of run ``seed``, all cuts, cv2d: fitted once a worker (two
+    tests read runs 0 and 1; the results are read, never changed)."""
+    return tk.resolve_ambiguity(run(seed)[0], "cv2d")
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_unresolved_before_the_turn_and_the_true_side_after_it(seed):
-    meas, side, _ = bench.simulate(np.random.default_rng([7, seed]))
+    meas, side, _ = run(seed)
     early = tk.resolve_ambiguity(meas.take(meas.time <= bench.LEG_S), "cv2d")
     assert early.sides and not any(s.resolved for s in early.sides)
     assert "no own-ship turn within these cuts" in early.sides[0].reason
     assert early.alternatives  # the mirror solution is reported beside the chosen one
-    full = tk.resolve_ambiguity(meas, "cv2d")
+    full = resolved(seed)
     assert len(full.legs.legs) == 2
     for s in full.sides:
         assert s.side == bench.true_side(meas, side, s.start, s.stop)
@@ -45,8 +59,8 @@ def test_unresolved_before_the_turn_and_the_true_side_after_it(seed):
 
 @pytest.mark.long
 def test_turn_cuts_are_named_and_left_out_unless_kept():
-    meas, _, turn_end = bench.simulate(np.random.default_rng([7, 0]))
-    amb = tk.resolve_ambiguity(meas, "cv2d")
+    meas, _, turn_end = run(0)
+    amb = resolved(0)
     flagged = np.array([c.time for c in amb.turn_cuts])
     assert flagged.size and np.all((flagged > bench.LEG_S - 60) & (flagged <= turn_end + 200))
     assert not np.any(np.isin(amb.measurements.time, flagged))
@@ -56,8 +70,8 @@ def test_turn_cuts_are_named_and_left_out_unless_kept():
 
 
 def test_the_chosen_side_swaps_the_bearing_and_its_twin():
-    meas, _, _ = bench.simulate(np.random.default_rng([7, 1]))
-    amb = tk.resolve_ambiguity(meas, "cv2d")
+    meas, _, _ = run(1)
+    amb = resolved(1)
     both = np.sort(np.column_stack([meas.value_si, meas.ambiguous_si]), axis=1)
     rows = np.isin(meas.time, amb.measurements.time)
     again = np.sort(np.column_stack([amb.measurements.value_si,

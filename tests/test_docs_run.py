@@ -25,7 +25,10 @@ empty folder, its blocks in the order they appear, as a reader would paste them:
 The folder is empty but for a link ``benchmarks`` to the checkout's ``benchmarks/`` (the docs
 run ``python benchmarks/….py`` from a checkout, as the README says). Shell blocks find
 ``python``, ``python3`` and ``tma`` of the interpreter running the tests, and draw with
-matplotlib's Agg backend.
+matplotlib's Agg backend. Their ``tma`` is a fork of a server that has imported the command
+once (tests/forked_tma.py: the same ``main``, arguments, folder, environment, streams and exit
+status, without a second of imports for each of the ~90 commands); ``TMAKIT_DOCS_TMA=process``
+runs each as a process of its own instead.
 """
 
 from __future__ import annotations
@@ -52,6 +55,7 @@ NEW_SESSION = re.compile(r"^<!--\s*new session\s*(?::\s*given\s*(?P<given>`.*`))
                          re.S)
 RUN_SLOW = os.environ.get("TMAKIT_SLOW_DOCS") == "1"
 BLOCK_TIMEOUT_S = 600
+FORKED_TMA = Path(__file__).with_name("forked_tma.py")
 
 
 @dataclass(frozen=True)
@@ -157,9 +161,11 @@ def shell_env() -> dict[str, str]:
     return env
 
 
-def run_shell(block: Block, script: str, cwd: Path) -> None:
+def run_shell(block: Block, script: str, cwd: Path, tma_socket: Path | None = None) -> None:
     # `python` and `python3` are the interpreter running the tests, whatever the PATH holds.
     prelude = f'python() {{ "{sys.executable}" "$@"; }}\npython3() {{ "{sys.executable}" "$@"; }}\n'
+    if tma_socket is not None:
+        prelude += f'tma() {{ "{sys.executable}" "{FORKED_TMA}" run "{tma_socket}" "$@"; }}\n'
     try:
         done = subprocess.run(["bash", "-e", "-o", "pipefail", "-c", prelude + script],
                               cwd=cwd, env=shell_env(), capture_output=True, text=True,
@@ -205,19 +211,50 @@ def shell_lines(block: Block) -> list[str]:
     return [" ".join(ln.split()) for ln in code if ln.strip()]
 
 
-def run_session(session: list[Block], cwd: Path) -> None:
-    """Run one session's blocks in order in the folder ``cwd``, its given commands first."""
+def run_session(session: list[Block], cwd: Path, tma_socket: Path | None = None) -> None:
+    """Run one session's blocks in order in the folder ``cwd``, its given commands first.
+
+    ``tma_socket``: a server of tests/forked_tma.py that runs the shell blocks' ``tma``.
+    """
     namespace: dict = {"__name__": "__main__"}
     for command in session[0].given or ():
-        run_shell(session[0], command, cwd)
+        run_shell(session[0], command, cwd, tma_socket)
     for block in session:
         if block.lang in PYTHON:
             run_python(block, namespace)
         elif block.lang in SHELL:
-            run_shell(block, block.code, cwd)
+            run_shell(block, block.code, cwd, tma_socket)
         else:
             for command in console_commands(block.code):
-                run_shell(block, command, cwd)
+                run_shell(block, command, cwd, tma_socket)
+
+
+@pytest.fixture(scope="module")
+def tma_socket(tmp_path_factory):
+    """A server of tests/forked_tma.py for this worker's sessions (None: a process a command)."""
+    if os.environ.get("TMAKIT_DOCS_TMA") == "process":
+        yield None
+        return
+    folder = tmp_path_factory.mktemp("tma")
+    path = folder / "socket"
+    with open(folder / "stderr", "w+") as err:
+        server = subprocess.Popen([sys.executable, str(FORKED_TMA), "serve", str(path)],
+                                  cwd=folder, env=shell_env(), stdin=subprocess.PIPE,
+                                  stdout=subprocess.PIPE, stderr=err, text=True)
+        try:
+            if server.stdout.readline().strip() != "ready":
+                server.wait(timeout=60)
+                err.seek(0)
+                pytest.fail(f"the forked tma server did not start:\n{err.read()[-3000:]}")
+            yield path
+        finally:
+            server.stdin.close()  # it ends when its input ends, once its commands have ended
+            try:
+                server.wait(timeout=120)
+            except subprocess.TimeoutExpired:
+                server.kill()
+                server.wait()
+            server.stdout.close()
 
 
 def runnable_sessions() -> list:
@@ -228,7 +265,7 @@ def runnable_sessions() -> list:
 
 @pytest.mark.long
 @pytest.mark.parametrize("session", runnable_sessions())
-def test_every_block_of_the_session_runs_in_order(session, tmp_path, monkeypatch):
+def test_every_block_of_the_session_runs_in_order(session, tmp_path, monkeypatch, tma_socket):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -238,7 +275,7 @@ def test_every_block_of_the_session_runs_in_order(session, tmp_path, monkeypatch
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("MPLBACKEND", "Agg")
     try:
-        run_session(session, tmp_path)
+        run_session(session, tmp_path, tma_socket)
     finally:
         plt.close("all")
 
@@ -356,3 +393,24 @@ if __name__ == "__main__":
         for reason in reasons:
             print(f"    not run: {reason}")
     print(f"{'total':24s} {totals[0]:18d} {totals[1]:9d}   {totals[2]:15d} {totals[3]:9d}")
+
+
+def test_the_forked_tma_writes_and_ends_as_its_own_process_does(tma_socket, tmp_path):
+    """Output redirected to a file, an error's message and exit status, standard input."""
+    if tma_socket is None:
+        pytest.skip("TMAKIT_DOCS_TMA=process: every command is its own process already")
+    script = ("tma scenarios > list.txt\nstatus=0\ntma estimate missing.csv 2> err.txt "
+              "|| status=$?\necho $status > status.txt\n"
+              "printf 'time,sensor\\n1,a\\n' | tma track --follow - --format csv "
+              "--max-updates 1 > stdin.txt 2> /dev/null || echo \"exit $?\" >> stdin.txt\n")
+    out = {}
+    for mode, socket in (("forked", tma_socket), ("process", None)):
+        (tmp_path / mode).mkdir()
+        run_shell(Block(tmp_path / "t.md", 1, "bash", script, None), script, tmp_path / mode,
+                  socket)
+        out[mode] = {name: (tmp_path / mode / name).read_text()
+                     for name in ("list.txt", "err.txt", "status.txt", "stdin.txt")}
+    assert out["forked"] == out["process"]
+    assert out["forked"]["status.txt"].strip() == "2" and "missing.csv" in out["forked"]["err.txt"]
+    assert "gu2007" in out["forked"]["list.txt"]
+    assert "standard input ended" in out["forked"]["stdin.txt"]  # it read the pipe to its end

@@ -30,6 +30,7 @@ where the paper is implemented.
 from __future__ import annotations
 
 import ast
+import functools
 import importlib.util
 import pkgutil
 import re
@@ -165,13 +166,23 @@ def walk(path: Path, tree: ast.Module, public: set[str]) -> list[Item]:
     return items
 
 
+@functools.cache
+def parsed() -> dict[Path, ast.Module]:
+    """Every module of the package, parsed once a process (the tests only read the trees)."""
+    return {path: ast.parse(path.read_text(), filename=str(path))
+            for path in sorted(SRC.rglob("*.py"))}
+
+
+@functools.cache
 def load() -> tuple[list[Item], dict[str, list[ast.ClassDef]]]:
-    """All public items, and every tmakit class by name (for base-class look-up)."""
+    """All public items, and every tmakit class by name (for base-class look-up).
+
+    Walked once a process: three tests read it.
+    """
     items: list[Item] = []
     classes: dict[str, list[ast.ClassDef]] = {}
     public = exported()
-    for path in sorted(SRC.rglob("*.py")):
-        tree = ast.parse(path.read_text(), filename=str(path))
+    for path, tree in parsed().items():
         for node in ast.walk(tree):
             if isinstance(node, ast.ClassDef):
                 classes.setdefault(node.name, []).append(node)
@@ -349,8 +360,7 @@ def paper_modules() -> set[str]:
 
 def test_paper_modules_carry_references_sections():
     cited: set[str] = set()
-    for path in SRC.rglob("*.py"):
-        tree = ast.parse(path.read_text())
+    for path, tree in parsed().items():
         refs = [ast.get_docstring(tree) or ""] + [
             sections(ast.get_docstring(node) or "").get("References", "")
             for node in ast.walk(tree)
