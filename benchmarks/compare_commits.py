@@ -27,8 +27,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 
-WORKLOADS = {
-    "planner decision hurtado2008 x2000 (compiled)": """
+_PLANNER_SETUP = """
 import numpy as np
 from tmakit.bounds.pcrb_recursion import PosteriorInformation
 from tmakit.motion.dynamics import NearlyConstantVelocity
@@ -39,21 +38,15 @@ post = PosteriorInformation.from_prior(np.diag([500.0**2, 500.0**2, 100.0, 100.0
                                        NearlyConstantVelocity(dim=2, q=0.1), time=0.0)
 START, bel = PlatformState((0.0, 0.0), 0.0, 50.0), Belief(post, TARGET)
 base = dict(kinematics=cfg.kinematics, actions=cfg.actions, interval=cfg.interval)
+"""  # the two planner workloads' belief and platform
+
+WORKLOADS = {
+    "planner decision hurtado2008 x2000 (compiled)": _PLANNER_SETUP + """
 p = Planner(**base, plan=SensorPlan(["bearing", "range"], (0.0175, 30.0))); p.recommend(START, bel)
 t = time.process_time()
 for _ in range(2000): p.recommend(START, bel)
 """,
-    "planner H=2 over 1,000 particles x20 (general path)": """
-import numpy as np
-from tmakit.bounds.pcrb_recursion import PosteriorInformation
-from tmakit.motion.dynamics import NearlyConstantVelocity
-from tmakit.planning import Belief, Planner, SensorPlan
-from tmakit.sensors import PlatformState, platform_configuration
-cfg = platform_configuration("hurtado_nehorai_2008"); TARGET = np.array([-2e3, 15e3, 25.0, 0.0])
-post = PosteriorInformation.from_prior(np.diag([500.0**2, 500.0**2, 100.0, 100.0]),
-                                       NearlyConstantVelocity(dim=2, q=0.1), time=0.0)
-START, bel = PlatformState((0.0, 0.0), 0.0, 50.0), Belief(post, TARGET)
-base = dict(kinematics=cfg.kinematics, actions=cfg.actions, interval=cfg.interval)
+    "planner H=2 over 1,000 particles x20 (general path)": _PLANNER_SETUP + """
 cloud = TARGET + np.random.default_rng(0).standard_normal((1000, 4)) * [500, 500, 10, 10]
 p = Planner(**base, plan=SensorPlan(["bearing", "range"], (0.0175, 30.0)), gamma="cloud",
             horizon=2); bel = Belief(post, cloud); p.recommend(START, bel)
