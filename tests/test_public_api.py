@@ -16,8 +16,7 @@ import tmakit as tk
 from tmakit import filters
 from tmakit.cli import app
 
-FILTER_CLASSES = [filters.ExtendedKalmanFilter, filters.UnscentedKalmanFilter,
-                  filters.ParticleFilter, filters.ModifiedGainEKF]
+FILTER_CLASSES = list(filters.FILTERS.values())
 
 
 def public_callables():
@@ -57,6 +56,49 @@ def test_the_issue_examples_are_refused_naming_the_keyword(tmp_path):
     path = tk.write_measurements(meas, tmp_path / "m.csv")
     with pytest.raises(TypeError, match="bearing_sigm"):
         tk.read_measurements(path, bearing_sigm=0.5)
+
+
+def test_a_filter_start_refuses_a_setting_its_class_does_not_take_by_name():
+    scn = tk.load_scenario("bearings-only-2d")
+    meas = scn.simulate(rng=1)
+    res = tk.estimate(meas, scn.motion)
+    assert res.status == "converged"
+    prior, first = tk.BearingPrior(2000.0, 30_000.0, 10.0), filters.first_bearing(meas)
+    for cls in filters.FILTERS.values():
+        with pytest.raises(TypeError, match="bogus_option"):
+            cls.from_estimate(res, 100.0, bogus_option=3)
+        with pytest.raises(TypeError, match="bogus_option"):
+            cls.from_first_bearing(prior, first, bogus_option=3)
+    with pytest.raises(TypeError, match="particles"):  # another filter's setting
+        filters.ExtendedKalmanFilter.from_estimate(res, 100.0, particles=10)
+    with pytest.raises(TypeError, match="componnet"):
+        filters.GaussianSumFilter.from_mixture([1.0], [[5e3, 5e3, 0.0, 0.0]], np.eye(4)[None],
+                                               componnet="ckf")
+    with pytest.raises(TypeError, match="bearing_start"):
+        filters.ParticleFilter.from_first_bearing(prior, first, bearing_start=(prior, first))
+    with pytest.raises(TypeError, match="origin"):
+        filters.ModifiedPolarEKF.from_first_bearing(prior, first, origin=np.zeros(4))
+    # the settings a class takes reach it, the estimate's nuisance values by default
+    pf = filters.ParticleFilter.from_estimate(res, 100.0, particles=50, rng=2, q=0.01)
+    assert (pf.n_particles, pf.time, pf.dynamics.q) == (50, 100.0, 0.01)
+    assert isinstance(pf, filters.ParticleFilter)
+
+
+def test_filter_settings_name_every_keyword_of_the_filters_with_its_type():
+    """FilterSettings (the ``from_*`` starts' keywords) is the union of the constructors'."""
+    classes, todo = set(), [filters.TrackingFilter]
+    while todo:
+        todo += todo.pop().__subclasses__()
+        classes.update(todo)
+    declared = {k: v.__forward_arg__ for k, v in filters.FilterSettings.__annotations__.items()}
+    taken: dict[str, set[str]] = {}
+    for cls in classes:
+        for p in inspect.signature(cls).parameters.values():
+            if p.kind is p.KEYWORD_ONLY:
+                taken.setdefault(p.name, set()).add(str(p.annotation))
+    assert set(declared) == set(taken)
+    for name, types in taken.items():  # the same type, or that or None
+        assert types <= {declared[name], declared[name].removesuffix(" | None")}, name
 
 
 def test_monte_carlo_takes_rng_and_seed_warns_for_one_release():

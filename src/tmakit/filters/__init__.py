@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from ..motion.dynamics import NearlyConstantVelocity, process_noise, state_names, transition_matrix
 from ..observation.groups import MeasurementGroup, group_times
-from .base import TrackingFilter
+from .base import FilterSettings, TrackingFilter
 from .bearing_prior import BearingPrior, FirstBearing, first_bearing
 from .ekf import ExtendedKalmanFilter
 from .gaussian_sum import GaussianSumFilter
@@ -37,6 +37,7 @@ __all__ = [
     "BearingPrior",
     "CubatureKalmanFilter",
     "ExtendedKalmanFilter",
+    "FilterSettings",
     "FirstBearing",
     "GaussianSumFilter",
     "InteractingMultipleModel",

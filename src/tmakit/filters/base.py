@@ -8,8 +8,8 @@ kinds and sensors, and runs over a :class:`~tmakit.data.MeasurementSet` to a :cl
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Iterable, Mapping
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Self, TypedDict, Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -32,6 +32,47 @@ if TYPE_CHECKING:  # pragma: no cover
 ProcessNoise = float | tuple[float, ...]
 #: Per-kind measurement-model options (``{"frequency": {"drift": True}}``).
 KindOptions = Mapping[str, Mapping[str, object]]
+
+
+class FilterSettings(TypedDict, total=False):
+    """The keywords of tmakit's filter constructors, for the ``from_*`` starts (PEP 692).
+
+    Each filter class takes the shared four (``q``, ``dynamics``, ``options``, ``nuisance``:
+    :class:`TrackingFilter`) and its own, documented on the class; a keyword its class does
+    not take raises :class:`TypeError` naming it, and one named nowhere here is a type error.
+    """
+
+    q: ProcessNoise
+    dynamics: NearlyConstantVelocity | None
+    options: KindOptions | None
+    nuisance: Mapping[str, float] | None
+    iterations: int | None  # ExtendedKalmanFilter (and its kin), GaussianSumFilter, IMM
+    alpha: float  # UnscentedKalmanFilter
+    beta: float
+    kappa: float
+    gain: str  # ModifiedGainEKF
+    reflect: bool | None
+    particles: int  # ParticleFilter, MultipleModelParticleFilter
+    rng: np.random.Generator | int | None
+    resample_threshold: float
+    regularise: bool
+    bandwidth: float
+    bearing_start: tuple[BearingPrior, FirstBearing] | None
+    history: bool  # the particle, Gaussian-sum and IMM filters
+    component: str  # GaussianSumFilter, InteractingMultipleModel
+    split_threshold: float
+    prune: float
+    merge: float
+    capacity: int
+    model_q: Sequence[float]  # InteractingMultipleModel, MultipleModelParticleFilter
+    transition: ArrayLike | None
+    turn_rates: Sequence[float] | None
+    turn_q: float
+    rate_noise: float | None
+    rate_std: float
+    sojourn: float
+    probabilities: ArrayLike | None
+    origin: ArrayLike | None  # ModifiedPolarEKF
 
 
 class TrackingFilter(ABC):
@@ -132,7 +173,7 @@ class TrackingFilter(ABC):
 
     @classmethod
     def from_estimate(cls, result: EstimateResult, time: float, *, inflate: float = 1.0,
-                      **kwargs: Any) -> TrackingFilter:
+                      **settings: Unpack[FilterSettings]) -> Self:
         """Start a filter from a batch estimate's state, covariance and nuisance values at ``time``.
 
         Parameters
@@ -143,8 +184,9 @@ class TrackingFilter(ABC):
             Time of the filter's prior (s).
         inflate : float, optional
             Factor on the mapped covariance.
-        **kwargs
-            Further arguments of the filter class.
+        **settings
+            The class's own keywords (:class:`FilterSettings`: ``q``, ``dynamics``,
+            ``particles``, ...); ``nuisance`` defaults to the estimate's values.
 
         Returns
         -------
@@ -155,6 +197,8 @@ class TrackingFilter(ABC):
         ------
         ValueError
             If the estimate's covariance is not finite.
+        TypeError
+            If the class takes no keyword of that name.
         """
         motion = result.motion
         theta = np.asarray(result.estimate, dtype=float)
@@ -166,12 +210,12 @@ class TrackingFilter(ABC):
         if not np.all(np.isfinite(cov)):
             raise ValueError("the batch estimate has no finite covariance (status "
                              f"{result.status!r}); start the filter from a prior instead")
-        kwargs.setdefault("nuisance", {k: v for k, (v, _) in result.nuisance.items()})
-        return cls(state6[keep], cov, float(time), **kwargs)
+        settings.setdefault("nuisance", {k: v for k, (v, _) in result.nuisance.items()})
+        return cls._made(state6[keep], cov, float(time), settings)
 
     @classmethod
     def from_first_bearing(cls, prior: BearingPrior, first: FirstBearing, dim: int = 2,
-                           **kwargs: Any) -> TrackingFilter:
+                           **settings: Unpack[FilterSettings]) -> Self:
         """Start at the first bearing from the prior's mean and covariance (Gaussian filters).
 
         Parameters
@@ -182,15 +226,28 @@ class TrackingFilter(ABC):
             The first bearing (its time is the filter's).
         dim : int
             2 or 3.
-        **kwargs
-            Further arguments of the filter class.
+        **settings
+            The class's own keywords (:class:`FilterSettings`).
 
         Returns
         -------
         TrackingFilter
+            A filter of this class.
+
+        Raises
+        ------
+        TypeError
+            If the class takes no keyword of that name.
         """
         mean, cov = prior.gaussian(first, dim)
-        return cls(mean, cov, first.time, **kwargs)
+        return cls._made(mean, cov, first.time, settings)
+
+    @classmethod
+    def _made(cls, mean: ArrayLike, covariance: ArrayLike, time: float,
+              settings: FilterSettings) -> Self:
+        """Construct with ``settings``: the class's constructor refuses a keyword it lacks."""
+        make: Callable[..., Self] = cls
+        return make(mean, covariance, time, **settings)
 
     def group(self, rows: MeasurementSet | MeasurementGroup) -> MeasurementGroup:
         """Wrap measurement rows (any kinds and sensors) as a group at the filter's time.

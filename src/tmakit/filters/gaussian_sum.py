@@ -12,6 +12,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import ModuleType
+from typing import Self, Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -20,7 +21,7 @@ from ..core.arrays import Array, IntArray
 from ..core.linalg import solve_spd
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
-from .base import KindOptions, ProcessNoise, TrackingFilter
+from .base import FilterSettings, KindOptions, ProcessNoise, TrackingFilter
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import ExtendedKalmanFilter
 from .general import PreparedMeasurements
@@ -218,7 +219,7 @@ class GaussianSumFilter(TrackingFilter):
 
     @classmethod
     def from_mixture(cls, weights: ArrayLike, means: ArrayLike, covariances: ArrayLike,
-                     time: float = 0.0, **kwargs: object) -> GaussianSumFilter:
+                     time: float = 0.0, **settings: Unpack[FilterSettings]) -> Self:
         """Start from a Gaussian sum.
 
         Parameters
@@ -227,8 +228,8 @@ class GaussianSumFilter(TrackingFilter):
             ``(M,)`` > 0 (normalised here), ``(M, n)`` (m, m/s), ``(M, n, n)`` positive definite.
         time : float
             Its time (s).
-        **kwargs
-            The filter's settings (``component``, ``q``, ...).
+        **settings
+            The filter's keywords (``component``, ``q``, ...: :class:`FilterSettings`).
 
         Returns
         -------
@@ -238,6 +239,8 @@ class GaussianSumFilter(TrackingFilter):
         ------
         ValueError
             Shapes that do not agree or weights that are not positive.
+        TypeError
+            If the class takes no keyword of that name.
         """
         w = np.asarray(weights, dtype=float).reshape(-1)
         m = np.asarray(means, dtype=float)
@@ -248,16 +251,33 @@ class GaussianSumFilter(TrackingFilter):
                              f"covariances (M, n, n); got {w.shape}, {m.shape}, {p.shape}")
         if not (np.all(w > 0) and np.all(np.isfinite(w))):
             raise ValueError("the weights of a Gaussian sum must be finite and > 0")
-        out = cls(*mixture_moments(w / w.sum(), m, p), time, **kwargs)  # type: ignore[arg-type]
+        out = cls._made(*mixture_moments(w / w.sum(), m, p), time, settings)
         out._set_sum(w, m, p)
         return out
 
     @classmethod
     def from_first_bearing(cls, prior: BearingPrior, first: FirstBearing, dim: int = 2,
-                           **kwargs: object) -> GaussianSumFilter:
-        """Start from the range-parameterised sum of a bearing prior (Peach 1995)."""
+                           **settings: Unpack[FilterSettings]) -> Self:
+        """Start from the range-parameterised sum of a bearing prior (Peach 1995).
+
+        Parameters
+        ----------
+        prior : BearingPrior
+            Range, speed (and height) intervals.
+        first : FirstBearing
+            The first bearing (its time is the filter's).
+        dim : int
+            2 or 3.
+        **settings
+            The filter's keywords (:class:`FilterSettings`).
+
+        Returns
+        -------
+        GaussianSumFilter
+            A filter of this class.
+        """
         w, m, p = prior.mixture(first, dim)
-        return cls.from_mixture(w, m, p, first.time, **kwargs)
+        return cls.from_mixture(w, m, p, first.time, **settings)
 
     @property
     def components(self) -> tuple[Array, Array, Array]:

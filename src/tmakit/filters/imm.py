@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -22,6 +21,7 @@ from ..core.linalg import symmetrise
 from ..motion.dynamics import CoordinatedTurn, NearlyConstantVelocity, UnknownRateTurn
 from ..observation.groups import MeasurementGroup
 from .base import KindOptions, ProcessNoise, TrackingFilter
+from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import ExtendedKalmanFilter
 from .gaussian_sum import (
     check_component,
@@ -317,8 +317,10 @@ class MultipleModelParticleFilter(ParticleFilter):
     model_q, transition, turn_rates, turn_q, sojourn, probabilities
         The models and their Markov chain, as for :class:`InteractingMultipleModel`, but by
         default the turns of :data:`MMPF_TURN_RATES_DEG` and the stay :data:`MMPF_SOJOURN`.
-    **kwargs
-        As for :class:`ParticleFilter` (``particles``, ``rng``, ``q``, ``dynamics``, ...).
+    particles, rng, resample_threshold, regularise, bandwidth, history, bearing_start
+        As for :class:`ParticleFilter`.
+    q, dynamics, options, nuisance
+        As for :class:`~tmakit.filters.TrackingFilter`.
 
     Raises
     ------
@@ -337,14 +339,23 @@ class MultipleModelParticleFilter(ParticleFilter):
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  model_q: Sequence[float] = (), transition: ArrayLike | None = None,
                  turn_rates: Sequence[float] | None = None, turn_q: float = TURN_Q,
-                 sojourn: float = MMPF_SOJOURN,
-                 probabilities: ArrayLike | None = None, **kwargs: Any) -> None:
+                 sojourn: float = MMPF_SOJOURN, probabilities: ArrayLike | None = None,
+                 particles: int = 1000, rng: np.random.Generator | int | None = None,
+                 resample_threshold: float = 0.5, regularise: bool = True,
+                 bandwidth: float = 1.0, history: bool = False,
+                 bearing_start: tuple[BearingPrior, FirstBearing] | None = None,
+                 q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
+                 options: KindOptions | None = None,
+                 nuisance: Mapping[str, float] | None = None) -> None:
         extra, rates, self.chain, self._mu0 = markov_chain(
             model_q, transition, turn_rates, turn_q, sojourn, probabilities,
             default_rates_deg=MMPF_TURN_RATES_DEG)
         self.model_q = tuple(extra)
         self._switch = self.chain.matrix(0.0)
-        super().__init__(mean, covariance, time, **kwargs)
+        super().__init__(mean, covariance, time, particles=particles, rng=rng,
+                         resample_threshold=resample_threshold, regularise=regularise,
+                         bandwidth=bandwidth, history=history, bearing_start=bearing_start,
+                         q=q, dynamics=dynamics, options=options, nuisance=nuisance)
         self.models = model_bank(self.dynamics, extra, rates, turn_q)
         self.probability_history: list[list[float]] = []
 

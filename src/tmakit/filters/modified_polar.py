@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from functools import cache
-from typing import Any
+from typing import Any, Self, Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike
 from ..core.arrays import Array
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
-from .base import KindOptions, ProcessNoise, TrackingFilter
+from .base import FilterSettings, KindOptions, ProcessNoise, TrackingFilter
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import gaussian_update
 from .general import DynamicsCache, finite
@@ -259,16 +259,41 @@ class ModifiedPolarEKF(TrackingFilter):
 
     @classmethod
     def from_first_bearing(cls, prior: BearingPrior, first: FirstBearing, dim: int = 2,
-                           **kwargs: Any) -> ModifiedPolarEKF:
+                           **settings: Unpack[FilterSettings]) -> Self:
         """Start at the first bearing with the prior's moments in these coordinates.
 
         ``1 / r`` has the moments of the log-uniform range (and, in 3-D, the uniform height);
-        the rates those of the relative velocity over the range (:func:`prior_moments`).
+        the rates those of the relative velocity over the range (:func:`prior_moments`); the
+        origin is the first bearing's sensor.
+
+        Parameters
+        ----------
+        prior : BearingPrior
+            Range, speed (and height) intervals.
+        first : FirstBearing
+            The first bearing (its time is the filter's).
+        dim : int
+            2 or 3.
+        **settings
+            The class's keywords (``q``, ``dynamics``, ...), but ``origin``.
+
+        Returns
+        -------
+        ModifiedPolarEKF
+            A filter of this class.
+
+        Raises
+        ------
+        TypeError
+            If ``origin`` is given too, or the class takes no keyword of that name.
         """
+        if "origin" in settings:
+            raise TypeError("from_first_bearing() got origin: the origin is the first "
+                            "bearing's sensor")
         mean, cov = prior_moments(prior, first, dim)
         origin = first.sensor[_XY_IN_XYZ if dim == 2 else slice(None)]
-        filt = cls(origin + from_modified_polar(mean)[0], np.eye(2 * dim), first.time,
-                   origin=origin, **kwargs)
+        filt = cls._made(origin + from_modified_polar(mean)[0], np.eye(2 * dim), first.time,
+                         {**settings, "origin": origin})
         filt._mp, filt._p = mean, cov
         return filt
 

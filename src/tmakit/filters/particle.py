@@ -12,7 +12,7 @@ import functools
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
-from typing import Any, cast
+from typing import Self, Unpack, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -21,7 +21,7 @@ from ..core.arrays import Array
 from ..core.linalg import nearest_psd, safe_cholesky, solve_spd, symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
-from .base import KindOptions, ProcessNoise, TrackingFilter
+from .base import FilterSettings, KindOptions, ProcessNoise, TrackingFilter
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import LOG_2PI
 from .track import Recorder, Track, UpdateInfo
@@ -157,10 +157,35 @@ class ParticleFilter(TrackingFilter):
 
     @classmethod
     def from_first_bearing(cls, prior: BearingPrior, first: FirstBearing, dim: int = 2,
-                           **kwargs: Any) -> ParticleFilter:
-        """Start from particles drawn from a bearing prior (:meth:`BearingPrior.sample`)."""
+                           **settings: Unpack[FilterSettings]) -> Self:
+        """Start from particles drawn from a bearing prior (:meth:`BearingPrior.sample`).
+
+        Parameters
+        ----------
+        prior : BearingPrior
+            Range, speed (and height) intervals.
+        first : FirstBearing
+            The first bearing (its time is the filter's).
+        dim : int
+            2 or 3.
+        **settings
+            The class's keywords (``particles``, ``rng``, ...), but ``bearing_start``.
+
+        Returns
+        -------
+        ParticleFilter
+            A filter of this class.
+
+        Raises
+        ------
+        TypeError
+            If ``bearing_start`` is given too, or the class takes no keyword of that name.
+        """
+        if "bearing_start" in settings:
+            raise TypeError("from_first_bearing() got bearing_start: the start is the prior "
+                            "and first bearing given")
         mean, cov = prior.gaussian(first, dim)
-        return cls(mean, cov, first.time, bearing_start=(prior, first), **kwargs)
+        return cls._made(mean, cov, first.time, {**settings, "bearing_start": (prior, first)})
 
     # -- state --------------------------------------------------------------------------------
     def _init_state(self, mean: Array, covariance: Array) -> None:
