@@ -3,12 +3,14 @@
 One mypy run: the public modules are listed in ``pyproject.toml`` (the ``[[tool.mypy.overrides]]``
 that holds them to the flags of ``mypy --strict``); the list must hold every module
 ``tmakit/__init__.pyi`` imports from and every module that defines a public name, so that it
-cannot fall behind the public face, and the flags must be every flag ``--strict`` sets.
+cannot fall behind the public face, and the flags must be every flag ``--strict`` sets. The same
+run checks a user's script (:data:`USER_SCRIPT`): a misspelt keyword is a type error.
 """
 
 from __future__ import annotations
 
 import ast
+import re
 import subprocess
 import sys
 import tomllib
@@ -24,6 +26,30 @@ PUBLIC = next(o for o in CONFIG["overrides"] if o.get("disallow_untyped_defs"))
 STRICT = PUBLIC["module"]
 
 pytest.importorskip("mypy")
+
+#: A user's script: each line marked ``# error: code`` must be that mypy error, no other line one.
+USER_SCRIPT = """\
+import numpy as np
+import tmakit as tk
+from tmakit.filters import (FILTERS, BearingPrior, ExtendedKalmanFilter, FirstBearing,
+                            GaussianSumFilter, ModifiedPolarEKF, MultipleModelParticleFilter,
+                            ParticleFilter, TrackingFilter)
+
+
+def starts(res: tk.EstimateResult, prior: BearingPrior, first: FirstBearing,
+           meas: tk.MeasurementSet) -> None:
+    ekf: ExtendedKalmanFilter = ExtendedKalmanFilter.from_estimate(res, 10.0, iterations=2)
+    pf: TrackingFilter = FILTERS["pf"].from_first_bearing(prior, first, particles=10, rng=1)
+    ExtendedKalmanFilter.from_estimate(res, 10.0, bogus_option=3)  # error: call-arg
+    ExtendedKalmanFilter.from_estimate(res, 10.0, q="0.1")  # error: arg-type
+    ParticleFilter.from_first_bearing(prior, first, partcles=10)  # error: call-arg
+    ModifiedPolarEKF.from_first_bearing(prior, first, 3, dynamic=None)  # error: call-arg
+    GaussianSumFilter.from_mixture([1.0], [[1.0] * 4], [np.eye(4)], componet="")  # error: call-arg
+    MultipleModelParticleFilter(np.zeros(4), np.eye(4), bogus_option=3)  # error: call-arg
+    ExtendedKalmanFilter(np.zeros(4), np.eye(4), iteration=2)  # error: call-arg
+    FILTERS["ekf"].from_estimate(res, 10.0, bogus_option=3)  # error: call-arg
+    tk.estimate(meas, tk.ConstantVelocity(2), bogus=1)  # error: call-arg
+"""
 
 
 def test_the_strict_list_covers_the_public_face():
@@ -55,8 +81,15 @@ def test_the_public_modules_have_every_flag_of_strict():
 
 
 @pytest.mark.long
-def test_mypy_is_clean_on_the_package_and_strict_on_the_public_modules():
-    # files and settings from pyproject.toml; the cache is the checkout's, as a user's mypy's
-    out = subprocess.run([sys.executable, "-m", "mypy"], cwd=ROOT, capture_output=True,
-                         text=True, check=False)
-    assert out.returncode == 0, out.stdout[-4000:] + out.stderr[-2000:]
+def test_mypy_is_clean_on_the_package_and_strict_on_the_public_modules(tmp_path):
+    # settings from pyproject.toml; the cache is the checkout's, as a user's mypy's
+    script = tmp_path / "user_script.py"
+    script.write_text(USER_SCRIPT)
+    out = subprocess.run([sys.executable, "-m", "mypy", *CONFIG["files"], str(script)],
+                         cwd=ROOT, capture_output=True, text=True, check=False)
+    found = re.findall(r"^(.*?):(\d+): error: .*\[([a-z-]+)\]$", out.stdout, re.MULTILINE)
+    wanted = [(str(script), str(i), m.group(1))
+              for i, line in enumerate(USER_SCRIPT.splitlines(), 1)
+              if (m := re.search(r"# error: ([a-z-]+)$", line))]
+    assert sorted(found) == sorted(wanted), out.stdout[-4000:] + out.stderr[-2000:]
+    assert out.returncode == 1 and "error: " not in out.stderr, out.stderr[-2000:]
