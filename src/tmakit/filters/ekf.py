@@ -175,8 +175,8 @@ class ExtendedKalmanFilter(TrackingFilter):
         self._mean, self._cov, nis, m, ll = self._gaussian_step(step, self._mean, self._cov)
         return UpdateInfo(nis, m, ll)
 
-    def _kalman(self, lin: Callable, arg: MeasurementGroup | Step, r: Array, mean: Array,
-                cov: Array) -> Updated:
+    def _kalman(self, lin: Callable[..., tuple[Array, Array, bool]],
+                arg: MeasurementGroup | Step, r: Array, mean: Array, cov: Array) -> Updated:
         y, h, ok = lin(arg, mean)
         if not ok:
             self.skipped_updates += 1

@@ -346,7 +346,7 @@ class GaussianSumFilter(TrackingFilter):
                 and me._predict is GaussianSumFilter._predict):
             return None
         times, zs = prepared.time[start:], prepared.values[start:]
-        k = times.shape[0]
+        k = int(times.shape[0])
         if times.shape[0] and times[0] < self.time - 1e-9:
             raise ValueError(f"filters run forward: cannot predict from t={self.time} s back "
                              f"to t={times[0]} s")

@@ -14,6 +14,7 @@ import math
 import weakref
 from collections.abc import Mapping
 from itertools import pairwise
+from typing import Any
 
 import numpy as np
 from scipy.linalg.lapack import dposv, dpotrf
@@ -153,7 +154,7 @@ def prepared_for(meas: MeasurementSet, dim: int,
 #: when every row is at the update time (then ``E`` (6, n) chains), noise ``R`` (m, m), the
 #: angle rows (index or None), the row times (m,), and the rows as plain-float records
 #: for the kinds' ``row_gradient`` (or None: the kinds' ``predict_gradient`` on arrays).
-Step = tuple
+Step = tuple[Any, ...]
 
 
 def sym(p: Array) -> Array:

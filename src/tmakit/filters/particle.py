@@ -476,4 +476,4 @@ def _kernel_factor(cov: Array) -> Array:
         return cast(Array, np.linalg.cholesky(cov))
     except np.linalg.LinAlgError:
         evals, evecs = np.linalg.eigh(nearest_psd(cov))
-        return evecs * np.sqrt(np.clip(evals, 0.0, None))
+        return cast(Array, evecs * np.sqrt(np.clip(evals, 0.0, None)))

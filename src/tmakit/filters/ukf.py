@@ -113,8 +113,8 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         dev = self._gamma * chol.T
         return np.concatenate((mean[None, :], mean + dev, mean - dev))
 
-    def _unscented(self, predict: Callable, arg: object, values: Array, angle: Index | None,
-                   r: Array, mean: Array, cov: Array) -> Updated:
+    def _unscented(self, predict: Callable[..., Array], arg: object, values: Array,
+                   angle: Index | None, r: Array, mean: Array, cov: Array) -> Updated:
         pts = self._plan_points(mean, cov)
         z = predict(arg, pts)
         total = float(z.sum())

@@ -92,16 +92,21 @@ class TmakitMeasurementModel(NonLinearGaussianMeasurement):
     def for_kinds(cls, kinds: str | Sequence[str], sigmas: ArrayLike,
                   sensor_state: ArrayLike, dim: int = 2, *, sensor: str = "sensor",
                   options: Mapping[str, Mapping[str, object]] | None = None,
-                  nuisance: Mapping[str, float] | None = None,
-                  **mappings: object) -> TmakitMeasurementModel:
-        """Build a model of tmakit kinds made from one sensor state, for Stone Soup's own loops."""
+                  nuisance: Mapping[str, float] | None = None, ndim_state: int | None = None,
+                  mapping: Sequence[int] | None = None,
+                  velocity_mapping: Sequence[int] | None = None) -> TmakitMeasurementModel:
+        """Build a model of tmakit kinds made from one sensor state, for Stone Soup's own loops.
+
+        ``ndim_state``, ``mapping``, ``velocity_mapping``, ``options`` and ``nuisance`` are as
+        for :meth:`from_rows`.
+        """
         names = [kinds] if isinstance(kinds, str) else list(kinds)
         n = len(names)
         rows = MeasurementSet.from_si(np.zeros(n), [sensor] * n, names, np.zeros(n),
                                       np.broadcast_to(np.asarray(sigmas, dtype=float), (n,)),
                                       np.tile(np.asarray(sensor_state, dtype=float), (n, 1)))
-        return cls.from_rows(rows, dim, options=options, nuisance=nuisance,
-                             **mappings)  # type: ignore[arg-type]
+        return cls.from_rows(rows, dim, ndim_state, mapping, velocity_mapping, options,
+                             nuisance)
 
     @property
     def ndim_meas(self) -> int:
