@@ -84,21 +84,41 @@ def test_a_filter_start_refuses_a_setting_its_class_does_not_take_by_name():
     assert isinstance(pf, filters.ParticleFilter)
 
 
+def settings_agree(declared_dict, classes, skip=()):
+    """The TypedDict names every keyword of the classes' constructors, with its type."""
+    declared = {k: v.__forward_arg__ for k, v in declared_dict.__annotations__.items()}
+    taken: dict[str, set[str]] = {}
+    for cls in classes:
+        for p in inspect.signature(cls).parameters.values():
+            if p.name not in skip:
+                taken.setdefault(p.name, set()).add(str(p.annotation))
+    assert set(declared) == set(taken)
+    for name, types in taken.items():  # the same type, or that or None
+        assert types <= {declared[name], declared[name].removesuffix(" | None")}, name
+
+
 def test_filter_settings_name_every_keyword_of_the_filters_with_its_type():
     """FilterSettings (the ``from_*`` starts' keywords) is the union of the constructors'."""
     classes, todo = set(), [filters.TrackingFilter]
     while todo:
         todo += todo.pop().__subclasses__()
         classes.update(todo)
-    declared = {k: v.__forward_arg__ for k, v in filters.FilterSettings.__annotations__.items()}
-    taken: dict[str, set[str]] = {}
-    for cls in classes:
-        for p in inspect.signature(cls).parameters.values():
-            if p.kind is p.KEYWORD_ONLY:
-                taken.setdefault(p.name, set()).add(str(p.annotation))
-    assert set(declared) == set(taken)
-    for name, types in taken.items():  # the same type, or that or None
-        assert types <= {declared[name], declared[name].removesuffix(" | None")}, name
+    settings_agree(filters.FilterSettings, classes, skip=("mean", "covariance", "time"))
+
+
+def test_estimator_settings_name_every_keyword_of_the_batch_estimators_by_name():
+    from tmakit.batch.methods import METHODS, EstimatorSettings, estimate_with, estimator
+    from tmakit.batch.ml import estimate as estimate_ml
+
+    settings_agree(EstimatorSettings, [m.cls for m in METHODS.values()])
+    scn = tk.load_scenario("gu2007")
+    meas = scn.simulate(rng=1)
+    with pytest.raises(TypeError, match="bogus_option"):
+        estimator("ml", bogus_option=3)
+    with pytest.raises(TypeError, match="normal_equations"):  # gu-direct's, not ml's
+        estimate_with("ml", meas, scn.motion, normal_equations=True)
+    with pytest.raises(TypeError, match="'exact'"):
+        estimate_ml(meas, scn.motion, exact=True)
 
 
 def test_monte_carlo_takes_rng_and_seed_warns_for_one_release():

@@ -7,9 +7,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypedDict, Unpack
 
 from ..data import MeasurementSet
 from ..motion import MotionModel, PiecewiseCurvilinear, default_ref_time, motion_from_name
@@ -22,8 +22,45 @@ from .manoeuvre import ManoeuvreEstimator, ManoeuvreSettings
 from .ml import estimate as estimate_ml
 from .papers import GuDirect, LectureGaussNewton, RatioMethod
 
-__all__ = ["METHODS", "MLByMotion", "Method", "estimate", "estimate_with", "estimator",
-           "model_of"]
+__all__ = ["METHODS", "EstimatorSettings", "MLByMotion", "Method", "estimate", "estimate_with",
+           "estimator", "model_of"]
+
+
+class EstimatorSettings(TypedDict, total=False):
+    """The keywords of the batch estimators by name (:data:`METHODS`; PEP 692).
+
+    Each estimator takes those its class documents; one it does not take raises
+    :class:`TypeError` naming it, and one named nowhere here is a type error.
+
+    Attributes
+    ----------
+    init, options
+        Every estimator's.
+    max_iter, tol
+        ``max_iter``: ``ml`` and the papers' iterations; ``tol``: the papers' iterations.
+    known_nuisance, grid, exact, criterion, alpha, accelerations, ref_time, settings
+        ``ml`` (:class:`MLByMotion`, as for :func:`estimate`).
+    kinds, c0, normal_equations, covariance
+        The papers' methods (:class:`~tmakit.batch.GuDirect`,
+        :class:`~tmakit.batch.RatioMethod`), each documented on its class.
+    """
+
+    init: Init
+    options: Options
+    max_iter: int
+    tol: float
+    known_nuisance: KnownNuisanceLike
+    grid: GridSettings | None
+    exact: bool | None
+    criterion: str | None
+    alpha: float | None
+    accelerations: str | None
+    ref_time: float | None
+    settings: ManoeuvreSettings | None
+    kinds: str | Sequence[str] | None
+    c0: float | None
+    normal_equations: bool
+    covariance: str
 
 
 def is_manoeuvring(motion: MotionModel) -> bool:
@@ -164,7 +201,7 @@ class Method:
         """Whether the method can hold the nuisance at known values."""
         return self.cls.takes_known_nuisance
 
-    def __call__(self, **settings: object) -> BatchEstimator:
+    def __call__(self, **settings: Unpack[EstimatorSettings]) -> BatchEstimator:
         """Build the estimator with these settings (and the ones the name fixes)."""
         clash = sorted(set(settings) & set(self.fixed))
         if clash:
@@ -190,7 +227,7 @@ METHODS: dict[str, Method] = {
 """Batch estimators by name, each building a :class:`~tmakit.batch.estimator.BatchEstimator`."""
 
 
-def estimator(method: str, **settings: object) -> BatchEstimator:
+def estimator(method: str, **settings: Unpack[EstimatorSettings]) -> BatchEstimator:
     """Build the batch estimator ``method`` (a key of :data:`METHODS`) with ``settings``.
 
     References
@@ -206,7 +243,6 @@ def estimator(method: str, **settings: object) -> BatchEstimator:
 
 
 def estimate_with(method: str, meas: MeasurementSet, motion: MotionModel,
-                  init: Init = None, options: Options = None,
-                  **settings: object) -> EstimateResult:
-    """Run the batch estimator ``method`` on the data."""
-    return estimator(method, init=init, options=options, **settings).fit(meas, motion)
+                  **settings: Unpack[EstimatorSettings]) -> EstimateResult:
+    """Run the batch estimator ``method`` on the data (``settings`` as for :func:`estimator`)."""
+    return estimator(method, **settings).fit(meas, motion)

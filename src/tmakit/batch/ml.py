@@ -25,7 +25,7 @@ from ..results.estimate import EstimateResult, assemble_result
 from ..results.nuisance import KnownNuisance, KnownNuisanceLike, as_known_nuisance
 from ..results.observability import full_rank
 from ..results.solutions import SOLUTION_ALPHA, Solution, separated_solutions
-from .estimator import BatchEstimator, Init, Options, refuse_manoeuvre_options, theta_from_init
+from .estimator import BatchEstimator, Init, Options, theta_from_init
 from .hyperbolic import closed_form_starts
 from .init import GridSettings, Starts, best_starts_many, first_of_many, subsample
 from .solver import Fallback, SolveResult, VarProProblem, information_of, levenberg_marquardt
@@ -177,10 +177,8 @@ def same_rows(sets: Sequence[MeasurementSet]) -> bool:
 
 def estimate(meas: MeasurementSet, motion: MotionModel, init: Init = None,
              options: Options = None, known_nuisance: KnownNuisanceLike = None,
-             grid: GridSettings | None = None, max_iter: int = 100,
-             **manoeuvre_options: object) -> EstimateResult:
+             grid: GridSettings | None = None, max_iter: int = 100) -> EstimateResult:
     """Fit by maximum likelihood: ``MaximumLikelihood(...).fit(meas, motion)``, short form."""
-    refuse_manoeuvre_options(manoeuvre_options, motion)
     return MaximumLikelihood(init, options, known_nuisance, grid, max_iter).fit(meas, motion)
 
 

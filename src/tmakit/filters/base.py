@@ -37,42 +37,69 @@ KindOptions = Mapping[str, Mapping[str, object]]
 class FilterSettings(TypedDict, total=False):
     """The keywords of tmakit's filter constructors, for the ``from_*`` starts (PEP 692).
 
-    Each filter class takes the shared four (``q``, ``dynamics``, ``options``, ``nuisance``:
-    :class:`TrackingFilter`) and its own, documented on the class; a keyword its class does
-    not take raises :class:`TypeError` naming it, and one named nowhere here is a type error.
+    Each filter class takes the shared four and its own, documented on the class; a keyword its
+    class does not take raises :class:`TypeError` naming it, and one named nowhere here is a
+    type error.
+
+    Attributes
+    ----------
+    q, dynamics, options, nuisance
+        Every filter's (:class:`TrackingFilter`).
+    iterations
+        :class:`~tmakit.filters.ExtendedKalmanFilter` (``int``), the modified-gain EKF, the
+        Gaussian sum (``None``: its default) and the IMM.
+    alpha, beta, kappa
+        :class:`~tmakit.filters.UnscentedKalmanFilter`.
+    gain, reflect
+        :class:`~tmakit.filters.ModifiedGainEKF` (``reflect`` also the reflecting EKF).
+    particles, rng, resample_threshold, regularise, bandwidth, bearing_start
+        :class:`~tmakit.filters.ParticleFilter` and the multiple-model particle filter.
+    history
+        The particle, Gaussian-sum and multiple-model filters.
+    component
+        :class:`~tmakit.filters.GaussianSumFilter` and the IMM.
+    split_threshold, prune, merge, capacity
+        :class:`~tmakit.filters.GaussianSumFilter`.
+    model_q, transition, turn_rates, turn_q, sojourn, probabilities
+        :class:`~tmakit.filters.InteractingMultipleModel` and the multiple-model particle
+        filter.
+    rate_noise, rate_std
+        :class:`~tmakit.filters.InteractingMultipleModel`.
+    origin
+        :class:`~tmakit.filters.ModifiedPolarEKF`.
     """
 
     q: ProcessNoise
     dynamics: NearlyConstantVelocity | None
     options: KindOptions | None
     nuisance: Mapping[str, float] | None
-    iterations: int | None  # ExtendedKalmanFilter (and its kin), GaussianSumFilter, IMM
-    alpha: float  # UnscentedKalmanFilter
+    iterations: int | None
+    alpha: float
     beta: float
     kappa: float
-    gain: str  # ModifiedGainEKF
+    gain: str
     reflect: bool | None
-    particles: int  # ParticleFilter, MultipleModelParticleFilter
+    particles: int
     rng: np.random.Generator | int | None
     resample_threshold: float
     regularise: bool
     bandwidth: float
     bearing_start: tuple[BearingPrior, FirstBearing] | None
-    history: bool  # the particle, Gaussian-sum and IMM filters
-    component: str  # GaussianSumFilter, InteractingMultipleModel
+    history: bool
+    component: str
     split_threshold: float
     prune: float
     merge: float
     capacity: int
-    model_q: Sequence[float]  # InteractingMultipleModel, MultipleModelParticleFilter
+    model_q: Sequence[float]
     transition: ArrayLike | None
     turn_rates: Sequence[float] | None
     turn_q: float
-    rate_noise: float | None
-    rate_std: float
     sojourn: float
     probabilities: ArrayLike | None
-    origin: ArrayLike | None  # ModifiedPolarEKF
+    rate_noise: float | None
+    rate_std: float
+    origin: ArrayLike | None
 
 
 class TrackingFilter(ABC):

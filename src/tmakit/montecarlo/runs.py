@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..batch.methods import METHODS, estimate_with, is_manoeuvring
+from ..batch.methods import METHODS, EstimatorSettings, estimate_with, is_manoeuvring
 from ..batch.ml import FIT_ERRORS, Best, MaximumLikelihood, solve_without_guess
 from ..batch.solver import VarProProblem, levenberg_marquardt
 from ..batch.varpro import compiled_batches
@@ -131,11 +131,12 @@ def _per_run(task: ChunkTask, meas: Sequence[MeasurementSet]) -> ChunkOutput:
     """Each run through the estimator's public function."""
     scn = task.scenario
     out = ChunkOutput.empty(task.first_run, len(meas), scn.motion.n_params)
-    known = {} if task.known_nuisance is None else {"known_nuisance": task.known_nuisance}
+    settings: EstimatorSettings = {"init": task.init, "options": task.options}
+    if task.known_nuisance is not None:
+        settings["known_nuisance"] = task.known_nuisance
     for i, m in enumerate(meas):
         try:
-            res = estimate_with(task.estimator, m, scn.motion, init=task.init,
-                                options=task.options, **known)
+            res = estimate_with(task.estimator, m, scn.motion, **settings)
         except RUN_ERRORS as e:
             out.fail(i, e)
             continue
