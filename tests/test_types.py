@@ -50,8 +50,9 @@ def starts(res: tk.EstimateResult, prior: BearingPrior, first: FirstBearing,
     ExtendedKalmanFilter(np.zeros(4), np.eye(4), iteration=2)  # error: call-arg
     FILTERS["ekf"].from_estimate(res, 10.0, bogus_option=3)  # error: call-arg
     tk.estimate(meas, tk.ConstantVelocity(2), bogus=1)  # error: call-arg
-    estimate_with("gu-direct", meas, "cv2d", tols=1e-6)  # error: call-arg
-    estimate_with("ml", meas, "cv2d", init={"x": 1.0}, max_iter=5, exact=True)
+    cv = tk.ConstantVelocity(2)
+    estimate_with("gu-direct", meas, cv, tols=1e-6)  # error: call-arg
+    estimate_with("ml", meas, cv, init={"x": 1.0}, max_iter=5, exact=True)
     estimator("ml", grid=3)  # error: arg-type
 """
 
