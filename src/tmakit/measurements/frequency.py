@@ -17,7 +17,7 @@ from ..core.arrays import Array
 from ..core.keywords import NOT_GIVEN, NotGiven, renamed_keyword
 from ..core.units import SPEED_OF_LIGHT
 from .base import Jacobian, MeasurementModel, ValueRange, as_rel, dot3
-from .range_rate import range_rate_and_gradient, range_rate_row
+from .range_rate import range_rate, range_rate_and_gradient, range_rate_row
 
 
 class Frequency(MeasurementModel):
@@ -96,7 +96,7 @@ class Frequency(MeasurementModel):
         rel = as_rel(rel)
         if nuisance is None:
             raise ValueError("frequency: the carrier (nuisance parameter) is needed")
-        rdot, _ = range_rate_and_gradient(rel)
+        rdot = range_rate(rel)
         return self._carrier(t, nuisance, rdot.shape) * (1.0 - rdot / self.c)
 
     def _design(self, small: Array, t: ArrayLike | None) -> tuple[Array, Array, Array]:

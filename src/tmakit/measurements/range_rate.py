@@ -24,6 +24,12 @@ from .base import (
 )
 
 
+def range_rate(rel: np.ndarray) -> np.ndarray:
+    """Give the range rate alone, as :func:`range_rate_and_gradient` computes it."""
+    inv_r, unit = inverse_range_and_unit(rel)
+    return dot3(unit, rel[..., 3:])
+
+
 def range_rate_and_gradient(rel: np.ndarray, scale: float = 1.0
                             ) -> tuple[np.ndarray, np.ndarray]:
     """Give the range rate and its gradient with respect to the relative state.
@@ -72,7 +78,7 @@ class RangeRate(MeasurementModel):
     def predict(self, rel: ArrayLike, t: ArrayLike | None = None,
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
         """Predict range rates, m/s; see :meth:`MeasurementModel.predict`."""
-        return range_rate_and_gradient(as_rel(rel))[0]
+        return range_rate(as_rel(rel))
 
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None

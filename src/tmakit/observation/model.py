@@ -73,6 +73,7 @@ class ObservationModel:
         self.sigmas_grouped = self._to_grouped(self.sigmas)
         self._set_row_model()
         self.angle_mask = self._to_set_order(self.angle_mask_grouped)
+        self._angles = bool(self.angle_mask.any())
 
     @property
     def order(self) -> NDArray[np.intp]:
@@ -424,4 +425,6 @@ class ObservationModel:
             ``(..., n)``, SI.
         """
         res = self.values - self.predict(theta, nuisance)
+        if not self._angles:  # (in C order, as np.where gives it: the same sums downstream)
+            return np.ascontiguousarray(res)
         return np.where(self.angle_mask, wrap_angle(res), res)
