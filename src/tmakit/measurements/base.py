@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..core.arrays import Array
 
 __all__ = ["Jacobian", "MeasurementModel", "ValueRange", "as_rel", "dot3",
-           "inverse_range_and_unit", "zeros_nuisance"]
+           "inverse_range_and_unit", "range_of", "zeros_nuisance"]
 
 
 def as_rel(rel: ArrayLike) -> Array:
@@ -33,6 +33,12 @@ def as_rel(rel: ArrayLike) -> Array:
 def dot3(a: Array, b: Array) -> Array:
     """Give the row-wise dot product of two arrays (fast for any memory layout)."""
     return np.einsum("...i,...i->...", a, b)
+
+
+def range_of(rel: Array) -> Array:
+    """Give ``|p|`` of ``p = rel[..., :3]`` by ``np.linalg.norm(p, axis=-1)``'s own sums."""
+    p = rel[..., :3]
+    return np.sqrt(np.add.reduce(p * p, axis=-1))
 
 
 def inverse_range_and_unit(rel: Array) -> tuple[Array, Array]:

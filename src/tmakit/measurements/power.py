@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike
 
 from ..core.arrays import Array
 from ..core.units import DBM_MINUS_DBW
-from .base import Jacobian, MeasurementModel, ValueRange, as_rel, dot3
+from .base import Jacobian, MeasurementModel, ValueRange, as_rel, dot3, range_of
 
 _TEN_OVER_LN10 = 10.0 / np.log(10.0)
 
@@ -68,7 +68,7 @@ class Power(MeasurementModel):
         """Predict received powers, dBW; see :meth:`MeasurementModel.predict`."""
         rel = as_rel(rel)
         const_db, n = self._split(nuisance)
-        r = np.linalg.norm(rel[..., :3], axis=-1)
+        r = range_of(rel)
         return const_db - 10.0 * n * np.log10(r)
 
     def affine(self, rel: ArrayLike, t: ArrayLike | None = None,

@@ -9,7 +9,7 @@ from numpy.typing import ArrayLike
 
 from ..core.arrays import Array
 from ..core.units import REACH_M
-from .base import Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
+from .base import Jacobian, MeasurementModel, ValueRange, as_rel, range_of, zeros_nuisance
 
 
 class Range(MeasurementModel):
@@ -24,14 +24,14 @@ class Range(MeasurementModel):
                 nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None) -> Array:
         """Predict ranges, m; see :meth:`MeasurementModel.predict`."""
         rel = as_rel(rel)
-        return np.linalg.norm(rel[..., :3], axis=-1)
+        return range_of(rel)
 
     def jacobian(self, rel: ArrayLike, t: ArrayLike | None = None,
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
                  ) -> Jacobian:
         """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`."""
         rel = as_rel(rel)
-        r = np.linalg.norm(rel[..., :3], axis=-1, keepdims=True)
+        r = range_of(rel)[..., None]
         d = np.zeros(rel.shape)
         d[..., :3] = rel[..., :3] / r
         return Jacobian(d, None, zeros_nuisance(rel))

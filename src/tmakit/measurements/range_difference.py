@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.arrays import Array
 from ..core.units import REACH_M
-from .base import Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
+from .base import Jacobian, MeasurementModel, ValueRange, as_rel, range_of, zeros_nuisance
 
 
 class RangeDifference(MeasurementModel):
@@ -60,7 +60,7 @@ def path_difference(rel: ArrayLike, rel_ref: ArrayLike | None, needs: str) -> Ar
     if rel_ref is None:
         raise ValueError(needs)
     rel_ref = as_rel(rel_ref)
-    return np.linalg.norm(rel[..., :3], axis=-1) - np.linalg.norm(rel_ref[..., :3], axis=-1)
+    return range_of(rel) - range_of(rel_ref)
 
 
 def path_difference_jacobian(rel: ArrayLike, rel_ref: ArrayLike | None, needs: str,
@@ -72,9 +72,8 @@ def path_difference_jacobian(rel: ArrayLike, rel_ref: ArrayLike | None, needs: s
     rel_ref = as_rel(rel_ref)
     d = np.zeros(rel.shape)
     d_ref = np.zeros(rel_ref.shape)
-    d[..., :3] = rel[..., :3] / np.linalg.norm(rel[..., :3], axis=-1, keepdims=True) * scale
-    d_ref[..., :3] = -rel_ref[..., :3] / np.linalg.norm(rel_ref[..., :3], axis=-1,
-                                                        keepdims=True) * scale
+    d[..., :3] = rel[..., :3] / range_of(rel)[..., None] * scale
+    d_ref[..., :3] = -rel_ref[..., :3] / range_of(rel_ref)[..., None] * scale
     return Jacobian(d, d_ref, zeros_nuisance(rel))
 
 

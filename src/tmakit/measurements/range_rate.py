@@ -26,8 +26,7 @@ from .base import (
 
 def range_rate(rel: np.ndarray) -> np.ndarray:
     """Give the range rate alone, as :func:`range_rate_and_gradient` computes it."""
-    inv_r, unit = inverse_range_and_unit(rel)
-    return dot3(unit, rel[..., 3:])
+    return dot3(inverse_range_and_unit(rel)[1], rel[..., 3:])
 
 
 def range_rate_and_gradient(rel: np.ndarray, scale: float = 1.0
