@@ -527,7 +527,7 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
     t = relative_seconds(np.array([s.time_ns for s in cuts.rows], np.int64), cuts.origin_ns)
     si = {"bearing": np.deg2rad(sig["bearing"]), "range": sig["range"],
           "frequency": sig["frequency"]}
-    times, kinds_, values, sigmas, st, lines, twins, tonals = _cut_rows(
+    times, kinds_, values, sigmas, st, lines, twins, tonals, names = _cut_rows(
         cuts.rows, cuts.states, t, si, asked, wanted, no_range)
     if not times:
         raise MeasurementFileError(where, [
@@ -543,11 +543,30 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
               f"{len(tonal_names)} tonal(s) ({_listed(tonal_names)}), each with its own "
               "unknown base frequency f0")
     raw = MeasurementSet.from_si(
-        np.array(times), np.full(len(times), cuts.host), np.array(kinds_), np.array(values),
+        np.array(times), _sensor_ids(cuts.host, names, kinds_, metadata), np.array(kinds_),
+        np.array(values),
         np.array(sigmas), np.array(st), metadata=metadata, check=False)
     raw = raw.with_ambiguous(np.array(twins))
     return _checked(where, raw.with_tonal(tonals) if "frequency" in kinds_ else raw, lines,
                     cuts.rows)
+
+
+def _sensor_ids(host: str, names: list[str], kinds: list[str],
+                metadata: dict[str, str]) -> NDArray[np.str_]:
+    """Name each value's sensor: the own ship, or HOST/SENSOR where two sensors share a kind."""
+    by_kind: dict[str, set[str]] = {}
+    for name, kind in zip(names, kinds, strict=True):
+        by_kind.setdefault(kind, set()).add(name)
+    shared = sorted(k for k, n in by_kind.items() if len(n) > 1)
+    if not shared:
+        return np.full(len(names), host)
+    told = list(dict.fromkeys(names))
+    ids = _listed([f"{host}/{n}" for n in told])
+    _note(metadata, f"note: {len(told)} sensors of own ship {host!r} ({_listed(told)}) measure "
+          f"{' and '.join(shared)}: each is a sensor of its own ({ids}), "
+          "at the positions its cuts state (or the own ship's where NULL), and their cuts are "
+          "fitted together (--contact NAME fits one)")
+    return np.array([f"{host}/{n}" for n in names])
 
 
 def _note(metadata: dict[str, str], note: str) -> None:
@@ -598,16 +617,9 @@ def _checked(path: Path, raw: MeasurementSet, lines: list[str],
     except MeasurementFileError as e:
         twice = [p for p in e.problems if "two values at one time" in p]
         contacts = list(dict.fromkeys(s.label.split()[0] for s in rows if s.label.split()))
-        sensors = list(dict.fromkeys(s.sensor for s in rows))
-        if not twice or (len(contacts) < 2 and len(sensors) < 2):
+        if not twice or len(contacts) < 2:  # two sensors of one kind have ids of their own
             raise
         other = twice[0].partition("at the time of ")[2].partition(" (")[0]
-        if len(contacts) < 2:
-            raise MeasurementFileError(path, [  # two sensors of the own ship at one time
-                f"the cuts read come from {len(sensors)} sensors of one own ship "
-                f"({_listed(sensors)}), two of them with a cut at one time "
-                f"({twice[0].split(':')[0]} and {other}): tmakit fits one sensor's cuts of a "
-                "kind at a time; choose one with --contact NAME (a sensor name)"]) from None
         raise MeasurementFileError(path, [  # cuts of several contacts at one time
             f"the cuts read name {len(contacts)} contacts ({_listed(contacts)}), two of them "
             f"at one time ({twice[0].split(':')[0]} and {other}): one fit cannot take "
@@ -823,9 +835,9 @@ def _placeholder_ranges(rows: list[SensorLine], ranges: str | None,
 def _cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.float64],
              sigmas: dict[str, float], asked: set[str], kinds: Collection[str],
              no_range: NDArray[np.bool_]
-             ) -> tuple[list, list, list, list, list, list, list, list]:
-    """Return the (time, kind, SI value, SI sigma, state, line, twin, tonal) of each value used."""
-    out: tuple[list, ...] = ([], [], [], [], [], [], [], [])
+             ) -> tuple[list, list, list, list, list, list, list, list, list]:
+    """Return the (time, kind, SI value, SI sigma, state, line, twin, tonal, sensor) of each."""
+    out: tuple[list, ...] = ([], [], [], [], [], [], [], [], [])
     for k, s in enumerate(rows):
         stated = {"bearing": None if s.bearing_accuracy is None
                   else float(np.deg2rad(s.bearing_accuracy)),
@@ -842,6 +854,6 @@ def _cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np
                     and s.ambiguous is not None else np.nan)
             tonal = s.sensor if kind == "frequency" else ""  # a sensor's tonal line
             for col, item in zip(out, (t[k], kind, si, sigma, states[k], _at_line(s), twin,
-                                       tonal), strict=True):
+                                       tonal, s.sensor), strict=True):
                 col.append(item)
     return out  # type: ignore[return-value]

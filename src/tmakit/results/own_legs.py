@@ -25,6 +25,13 @@ HOLDS_COURSE_SPEED = 0.5
 """Below this speed (m/s) a sensor holds no course: the heading of a navigation velocity that
 small is the receiver's noise (a GPS velocity has 0.05-0.3 m/s of it), so it makes no turn."""
 
+ONE_SHIP_M = 2000.0
+"""Sensors whose paths stay within this distance (m) of each other, at the same velocity, are
+on one own ship (a hull array and a towed array on its cable, two receivers on one UAV)."""
+
+ONE_SHIP_SPEED = 2.0
+"""The median difference of their velocities (m/s) below which two such sensors move as one."""
+
 
 @dataclass(frozen=True)
 class Leg:
@@ -324,14 +331,64 @@ def own_ship_legs(meas: MeasurementSet, sensor: str | None = None, *,
         Several sensors and none named.
     """
     if sensor is None:
-        if len(meas.sensors) != 1:
-            raise ValueError(f"the set has several sensors ({', '.join(meas.sensors)}): name "
-                             "the own ship whose legs are wanted")
-        sensor = meas.sensors[0]
-    rows = slice(None) if list(meas.sensors) == [sensor] else meas.sensor_mask(sensor)
+        if len(meas.sensors) != 1 and len(own_ship_sensors(meas)) != len(meas.sensors):
+            raise ValueError(f"the set has several sensors ({', '.join(meas.sensors)}) not on "
+                             "one own ship: name the own ship whose legs are wanted")
+        ship = list(meas.sensors)
+    else:
+        ship = own_ship_sensors(meas, sensor)
+    rows = (slice(None) if set(ship) == set(meas.sensors)
+            else np.isin(meas.sensor, np.array(ship)))
     return detect_legs(meas.time[rows], meas.sensor_state[rows],
                        turn_rate_deg_s=turn_rate_deg_s, window_s=window_s,
                        min_turn_deg=min_turn_deg)
+
+
+def own_ship_sensors(meas: MeasurementSet, sensor: str | None = None) -> list[str]:
+    """Return the sensors on one own ship with ``sensor`` (default: the one with most rows).
+
+    Two sensors are on one own ship when, over the time both record, each one's positions lie
+    within :data:`ONE_SHIP_M` of the other's path (interpolated between its rows) and their
+    velocities differ by less than :data:`ONE_SHIP_SPEED` (median): a hull-mounted and a
+    towed array, or two receivers on one aircraft.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+    sensor : str, optional
+
+    Returns
+    -------
+    list of str
+        ``sensor`` first, then the others on its own ship in the set's order.
+    """
+    names = list(meas.sensors)
+    if sensor is None:
+        sensor = max(names, key=lambda n: int(np.count_nonzero(meas.sensor == n)))
+    if sensor not in names:
+        raise ValueError(f"no sensor {sensor!r} in the set (sensors: {', '.join(names)})")
+    return [sensor] + [n for n in names if n != sensor and _moves_with(meas, sensor, n)]
+
+
+def _moves_with(meas: MeasurementSet, a: str, b: str) -> bool:
+    """Tell whether sensors ``a`` and ``b`` move as one, where their records overlap."""
+    rows = [np.flatnonzero(meas.sensor == n) for n in (a, b)]
+    rows = [r[np.argsort(meas.time[r], kind="stable")] for r in rows]
+    gaps, dv = [], []
+    for ref, other in (rows, rows[::-1]):
+        t_ref, t = meas.time[ref], meas.time[other]
+        inside = other[(t >= t_ref[0]) & (t <= t_ref[-1])]
+        if t_ref.size < 2 or not inside.size:
+            continue
+        at = meas.time[inside]
+        for col, out in ((slice(0, 2), gaps), (slice(3, 5), dv)):
+            path = np.column_stack([np.interp(at, t_ref, meas.sensor_state[ref, k])
+                                    for k in range(col.start, col.stop)])
+            out.append(np.hypot(*(path - meas.sensor_state[inside, col]).T))
+    if not gaps:
+        return False
+    return bool(np.max(np.concatenate(gaps)) <= ONE_SHIP_M
+                and np.median(np.concatenate(dv)) < ONE_SHIP_SPEED)
 
 
 def contact_legs(result: Any, meas: MeasurementSet) -> list[dict[str, float | None]] | None:
