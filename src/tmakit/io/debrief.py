@@ -563,9 +563,9 @@ def _sensor_ids(host: str, names: list[str], kinds: list[str],
     told = list(dict.fromkeys(names))
     ids = _listed([f"{host}/{n}" for n in told])
     _note(metadata, f"note: {len(told)} sensors of own ship {host!r} ({_listed(told)}) measure "
-          f"{' and '.join(shared)}: each is a sensor of its own ({ids}), "
-          "at the positions its cuts state (or the own ship's where NULL), and their cuts are "
-          "fitted together (--contact NAME fits one)")
+          f"{' and '.join(shared)}: each is a sensor of its own ({ids}), at the positions its "
+          "cuts state, else the own ship's (a sensor set apart, a towed array astern, needs its "
+          "positions in its cuts), and their cuts are fitted together (--contact NAME fits one)")
     return np.array([f"{host}/{n}" for n in names])
 
 

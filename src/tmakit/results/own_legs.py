@@ -105,7 +105,9 @@ def range_words(meas: MeasurementSet, sensor: str, manoeuvring_model: bool = Fal
                "bearings fit the target at any range; only a moving sensor that changes course "
                "can give range")
     else:
-        how = (f"the own ship {sensor} did not manoeuvre during these bearings (one straight leg: "
+        ship = own_ship_sensors(meas, sensor)
+        who = sensor if len(ship) == 1 else f"of sensors {' and '.join(ship)}"
+        how = (f"the own ship {who} did not manoeuvre during these bearings (one straight leg: "
                f"{spans}), so the bearings fit the target at any range, and its speed along the "
                "line of sight with it. A turn of 30° or more (or a change of speed) for a second "
                "leg about as long as the first lets range be determined")
