@@ -527,8 +527,9 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
     t = relative_seconds(np.array([s.time_ns for s in cuts.rows], np.int64), cuts.origin_ns)
     si = {"bearing": np.deg2rad(sig["bearing"]), "range": sig["range"],
           "frequency": sig["frequency"]}
-    times, kinds_, values, sigmas, st, lines, twins, tonals, names = _cut_rows(
-        cuts.rows, cuts.states, t, si, asked, wanted, no_range)
+    columns = _one_copy(_cut_rows(cuts.rows, cuts.states, t, si, asked, wanted, no_range),
+                        notes)
+    times, kinds_, values, sigmas, st, lines, twins, tonals, names = columns
     if not times:
         raise MeasurementFileError(where, [
             f"the sensor lines of {cuts.host!r} measure nothing of {', '.join(sorted(wanted))} "
@@ -549,6 +550,31 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
     raw = raw.with_ambiguous(np.array(twins))
     return _checked(where, raw.with_tonal(tonals) if "frequency" in kinds_ else raw, lines,
                     cuts.rows)
+
+
+def _one_copy(columns: tuple[list, ...], notes: list[str]) -> tuple[list, ...]:
+    """Drop a sensor's values that repeat another's at every time both measure (copies)."""
+    times, kinds, values, names = columns[0], columns[1], columns[2], columns[8]
+    by_time: dict[tuple[float, str], dict[str, float]] = {}
+    for t, kind, value, name in zip(times, kinds, values, names, strict=True):
+        by_time.setdefault((t, kind), {}).setdefault(name, value)
+    common: dict[tuple[str, str, str], list[bool]] = {}  # (copy, of, kind): equal at each time
+    for (_, kind), seen in by_time.items():
+        order = list(seen)
+        for k, b in enumerate(order):
+            for a in order[:k]:
+                common.setdefault((b, a, kind), []).append(seen[a] == seen[b])
+    copies = {key: len(eq) for key, eq in common.items() if len(eq) >= 3 and all(eq)
+              and not any(key[1] == c[0] and key[2] == c[2] for c in common if all(common[c]))}
+    if not copies:
+        return columns
+    drop = {(t, kind, name) for (t, kind), seen in by_time.items() for name in seen
+            if any((name, a, kind) in copies for a in seen)}
+    notes.append("note: a sensor of the own ship repeats another's values at every time both "
+                 "measure (copies of one cut, read once as a cut written twice): " + _listed(
+                     [f"{n} {kind}(s) of {b} repeat {a}" for (b, a, kind), n in copies.items()]))
+    keep = [i for i, key in enumerate(zip(times, kinds, names, strict=True)) if key not in drop]
+    return tuple([col[i] for i in keep] for col in columns)
 
 
 def _sensor_ids(host: str, names: list[str], kinds: list[str],

@@ -352,7 +352,7 @@ def own_ship_sensors(meas: MeasurementSet, sensor: str | None = None) -> list[st
     Two sensors are on one own ship when, over the time both record, each one's positions lie
     within :data:`ONE_SHIP_M` of the other's path (interpolated between its rows) and their
     velocities differ by less than :data:`ONE_SHIP_SPEED` (median): a hull-mounted and a
-    towed array, or two receivers on one aircraft.
+    towed array, or two receivers on one aircraft; or when both are so with a third.
 
     Parameters
     ----------
@@ -369,7 +369,11 @@ def own_ship_sensors(meas: MeasurementSet, sensor: str | None = None) -> list[st
         sensor = max(names, key=lambda n: int(np.count_nonzero(meas.sensor == n)))
     if sensor not in names:
         raise ValueError(f"no sensor {sensor!r} in the set (sensors: {', '.join(names)})")
-    return [sensor] + [n for n in names if n != sensor and _moves_with(meas, sensor, n)]
+    ship, added = [sensor], [sensor]
+    while added:  # through a third sensor where two records do not overlap
+        added = [n for n in names if n not in ship and any(_moves_with(meas, a, n) for a in added)]
+        ship += added
+    return [sensor] + [n for n in names if n in ship[1:]]
 
 
 def _moves_with(meas: MeasurementSet, a: str, b: str) -> bool:
