@@ -582,7 +582,8 @@ def _sensor_ids(host: str, names: list[str], kinds: list[str],
     """Name each value's sensor: the own ship, or HOST/SENSOR where two sensors share a kind."""
     by_kind: dict[str, set[str]] = {}
     for name, kind in zip(names, kinds, strict=True):
-        by_kind.setdefault(kind, set()).add(name)
+        if kind != "frequency":  # each sensor's frequencies are a tonal of their own already
+            by_kind.setdefault(kind, set()).add(name)
     shared = sorted(k for k, n in by_kind.items() if len(n) > 1)
     if not shared:
         return np.full(len(names), host)
