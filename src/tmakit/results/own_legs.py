@@ -380,7 +380,8 @@ def _moves_with(meas: MeasurementSet, a: str, b: str) -> bool:
     """Tell whether sensors ``a`` and ``b`` move as one, where their records overlap."""
     rows = [np.flatnonzero(meas.sensor == n) for n in (a, b)]
     rows = [r[np.argsort(meas.time[r], kind="stable")] for r in rows]
-    gaps, dv = [], []
+    gaps: list[NDArray[np.float64]] = []
+    dv: list[NDArray[np.float64]] = []
     for ref, other in (rows, rows[::-1]):
         t_ref, t = meas.time[ref], meas.time[other]
         inside = other[(t >= t_ref[0]) & (t <= t_ref[-1])]
