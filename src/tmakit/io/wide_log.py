@@ -355,9 +355,8 @@ def _column_sensors(m: LogMapping, metadata: dict[str, str]) -> dict[str, str]:
                 "together; a measurement's sensor key names it")
         old = metadata.get(READER_NOTES_KEY)
         metadata[READER_NOTES_KEY] = note if not old else NOTES_SEPARATOR.join((old, note))
-        named.update({s.column: s.column for s in shared})
-        if not m.sensor_column:
-            named.update({s.column: f"{m.sensor}/{s.column}" for s in shared})
+        prefix = "" if m.sensor_column else f"{m.sensor}/"  # a sensor column's ids prefix them
+        named.update({s.column: prefix + s.column for s in shared})
     return named
 
 
