@@ -200,3 +200,28 @@ def test_a_wide_log_with_two_bearing_columns_is_two_sensors_of_one_platform(tmp_
                                 mapping=tmp_path / "named.toml")
     assert sorted(read.sensors) == ["ship", "towed"]
     assert tk.estimate(read, "cv2d").converged
+
+
+def test_each_debrief_sensor_takes_its_own_bearing_sigma():
+    """``--bearing-sigma HM=0.05,TA=0.1``: each array's own noise; a name that is no sensor of
+    the own ship, or a sigma that is no number > 0, is refused naming the sensors."""
+    files = [DEBRIEF / "asset_ambig" / n for n in
+             ("Ambig_tracks2.rep", "Ambig_cuts_TA.rep", "Ambig_cuts_HM.rep")]
+    meas = tk.read_measurements(files, bearing_sigma_deg={"HM": 0.05, "SENSOR/TA": 0.1})
+    sigma = {n: set(np.rad2deg(meas.sigma_si[meas.sensor_mask(n)]).round(9)) for n in
+             meas.sensors}
+    assert sigma == {"SENSOR/HM": {0.05}, "SENSOR/TA": {0.1}}
+    with pytest.raises(tk.MeasurementFileError, match=r"bearing sigma of sensor 'XX': no cut of "
+                       r"own ship 'SENSOR' is from it \(sensors: TA; HM\)"):
+        tk.read_measurements(files, bearing_sigma_deg={"XX": 1.0})
+    runner = CliRunner()
+    result = runner.invoke(app, ["estimate", *map(str, files), "--motion", "cv2d", "--from",
+                                 "14:00", "--bearing-sigma", "HM=0.05,TA=0.1", "--units",
+                                 "nautical"])
+    assert result.exit_code == 0, result.output
+    rows = answers(result.output)
+    assert abs(float(rows["course (true)"]) - 160.76) < 0.2
+    assert abs(float(rows["speed"]) - 6.0) < 0.05
+    bad = runner.invoke(app, ["show", *map(str, files), "--bearing-sigma", "HM=x"])
+    assert bad.exit_code == 2 and "expected a std in degrees (0.5), or one per sensor" in (
+        bad.output)

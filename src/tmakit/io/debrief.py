@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Collection, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
@@ -498,7 +498,8 @@ def _kinds(where: Path, kinds: Collection[str] | None) -> set[str]:
 def _default_sigmas(path: Path, bearing: float | None, range_: float | None,
                     frequency: float | None) -> tuple[dict[str, float], set[str]]:
     """Return the sigmas of lines stating none (deg, m, Hz) and the kinds the user gave."""
-    given = {"bearing": bearing, "range": range_, "frequency": frequency}
+    given: dict[str, float | None] = {"bearing": bearing, "range": range_,
+                                      "frequency": frequency}
     default = {"bearing": DEFAULT_BEARING_SIGMA_DEG, "range": DEFAULT_RANGE_SIGMA_M,
                "frequency": DEFAULT_FREQUENCY_SIGMA_HZ}
     sig = {k: default[k] if v is None else v for k, v in given.items()}
@@ -510,7 +511,8 @@ def _default_sigmas(path: Path, bearing: float | None, range_: float | None,
 
 def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
                 ownship: str | None = None, contact: str | None = None,
-                bearing_sigma: float | None = None, range_sigma: float | None = None,
+                bearing_sigma: float | Mapping[str, float] | None = None,
+                range_sigma: float | None = None,
                 frequency_sigma: float | None = None, dim: int | None = None,
                 ranges: str | None = None, kinds: Collection[str] | None = None,
                 window: Sequence[str | None] | None = None, **_: object) -> MeasurementSet:
@@ -518,7 +520,9 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
     paths, where = _paths(path)
     if ranges not in (None, *_RANGES_CHOICES):
         raise MeasurementFileError(where, [f"ranges {ranges!r}: expected use or ignore"])
-    sig, asked = _default_sigmas(where, bearing_sigma, range_sigma, frequency_sigma)
+    by_sensor = dict(bearing_sigma) if isinstance(bearing_sigma, Mapping) else {}
+    one = None if isinstance(bearing_sigma, Mapping) else bearing_sigma
+    sig, asked = _default_sigmas(where, one, range_sigma, frequency_sigma)
     wanted = _kinds(where, kinds)
     notes: list[str] = []
     cuts = _cuts(where, paths, ownship, contact, window, origin, dim, notes)
@@ -527,8 +531,8 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
     t = relative_seconds(np.array([s.time_ns for s in cuts.rows], np.int64), cuts.origin_ns)
     si = {"bearing": np.deg2rad(sig["bearing"]), "range": sig["range"],
           "frequency": sig["frequency"]}
-    columns = _one_copy(_cut_rows(cuts.rows, cuts.states, t, si, asked, wanted, no_range),
-                        notes)
+    columns = _one_copy(_cut_rows(cuts.rows, cuts.states, t, si, asked, wanted, no_range,
+                                  _sigma_by_sensor(where, cuts, by_sensor)), notes)
     times, kinds_, values, sigmas, st, lines, twins, tonals, names = columns
     if not times:
         raise MeasurementFileError(where, [
@@ -536,6 +540,9 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
             "(every such field is NULL" + (", or a placeholder range" if no_range.any() else "")
             + ")"])
     metadata = _metadata(paths, cuts, contact, sig, int(np.isfinite(twins).sum()), notes)
+    if by_sensor:
+        metadata["bearing_sigma_by_sensor_deg"] = ", ".join(
+            f"{k.strip()}={v:g}" for k, v in by_sensor.items())
     if "frequency" in kinds_:  # Debrief's frequencies are sonar tonals
         metadata["frequency_propagation_speed"] = repr(SOUND_SPEED_SEA_M_S)
         tonal_names = list(dict.fromkeys(t for t in tonals if t))
@@ -550,6 +557,24 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
     raw = raw.with_ambiguous(np.array(twins))
     return _checked(where, raw.with_tonal(tonals) if "frequency" in kinds_ else raw, lines,
                     cuts.rows)
+
+
+def _sigma_by_sensor(where: Path, cuts: _Cuts, by_sensor: dict[str, float]) -> dict[str, float]:
+    """Check per-sensor bearing sigmas (deg; names as in the file, or HOST/NAME): SI by name."""
+    names = list(dict.fromkeys(s.sensor for s in cuts.rows))
+    out, bad = {}, []
+    for key, value in by_sensor.items():
+        name = key.strip().removeprefix(f"{cuts.host}/")
+        if name not in names:
+            bad.append(f"bearing sigma of sensor {key!r}: no cut of own ship {cuts.host!r} is "
+                       f"from it (sensors: {_listed(names)})")
+        elif not (isinstance(value, int | float) and value > 0):
+            bad.append(f"bearing sigma of sensor {key!r}: {value!r}, expected a number > 0 (deg)")
+        else:
+            out[name] = float(np.deg2rad(value))
+    if bad:
+        raise MeasurementFileError(where, bad)
+    return out
 
 
 def _one_copy(columns: tuple[list, ...], notes: list[str]) -> tuple[list, ...]:
@@ -861,7 +886,7 @@ def _placeholder_ranges(rows: list[SensorLine], ranges: str | None,
 
 def _cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.float64],
              sigmas: dict[str, float], asked: set[str], kinds: Collection[str],
-             no_range: NDArray[np.bool_]
+             no_range: NDArray[np.bool_], bearing_by_sensor: dict[str, float]
              ) -> tuple[list, list, list, list, list, list, list, list, list]:
     """Return the (time, kind, SI value, SI sigma, state, line, twin, tonal, sensor) of each."""
     out: tuple[list, ...] = ([], [], [], [], [], [], [], [], [])
@@ -877,6 +902,8 @@ def _cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np
                   else value * YARD if kind == "range" else value)
             line_sigma = stated.get(kind)
             sigma = sigmas[kind] if line_sigma is None or kind in asked else line_sigma
+            if kind == "bearing" and s.sensor in bearing_by_sensor:  # the user's, by sensor
+                sigma = bearing_by_sensor[s.sensor]
             twin = (float(np.deg2rad(s.ambiguous)) if kind == "bearing"
                     and s.ambiguous is not None else np.nan)
             tonal = s.sensor if kind == "frequency" else ""  # a sensor's tonal line
