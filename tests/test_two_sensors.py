@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import re
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -21,33 +22,9 @@ from tmakit.cli import app
 from tmakit.cli.guard import EXIT_NO_ANSWER
 from tmakit.io.errors import reader_notes
 from tmakit.results.own_legs import own_ship_legs, own_ship_sensors
-from tmakit.scenario.files import scenario_from_dict
 
-LEGS = [{"duration": 110.0}, {"duration": 10.0, "turn_rate_deg_s": -9.0},
-        {"duration": 110.0}, {"duration": 10.0, "turn_rate_deg_s": 9.0},
-        {"duration": 110.0}, {"duration": 10.0, "turn_rate_deg_s": -9.0},
-        {"duration": float("inf")}]
-#: The hull array: 2 deg every 4 s; the towed array: 1 deg every 4 s, 2 s after the hull's.
-HULL_SIGMA_DEG, TOWED_SIGMA_DEG = 2.0, 1.0
-TRUTH = {"x": 4000.0, "y": 9000.0, "vx": -6.0, "vy": -3.0}
-T_END = 480.0
-
-
-def scenario(sensors: tuple[str, ...] = ("hull", "towed")) -> tk.Scenario:
-    own = {"type": "legs", "start": [0.0, 0.0], "heading_deg": 45.0, "speed": 8.0,
-           "legs": LEGS}
-    plans = {"hull": {"kind": "bearing", "sensor": "hull", "sigma": HULL_SIGMA_DEG,
-                      "times": {"start": 4.0, "stop": T_END, "step": 4.0}},
-             "towed": {"kind": "bearing", "sensor": "towed", "sigma": TOWED_SIGMA_DEG,
-                       "times": {"start": 2.0, "stop": T_END - 2.0, "step": 4.0}}}
-    data = {"name": "two-arrays", "target": {"motion": "cv2d", "truth": TRUTH},
-            "sensors": [{**own, "id": s} for s in sensors],
-            "measurements": [plans[s] for s in sensors]}
-    return scenario_from_dict(data, "two-arrays.toml")
-
-
-def final_position(theta: np.ndarray) -> np.ndarray:
-    return np.array([theta[0] + theta[2] * T_END, theta[1] + theta[3] * T_END])
+sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))
+from two_sensors import scenario, study  # the benchmark's own definitions
 
 
 def test_two_sensors_of_one_ship_are_one_own_ship_with_its_legs():
@@ -68,35 +45,15 @@ def test_two_sensors_of_one_ship_are_one_own_ship_with_its_legs():
 
 @pytest.mark.long
 def test_fused_fit_is_honest_and_at_least_as_good_as_either_sensor():
-    """200 seeded runs: the truth inside the fused fit's 95 % ellipse in 95 % +- 3.5 binomial
-    sigmas of them (181 to 199 of 200), its final-position RMS within 1.25x its CRLB, and that
-    RMS no larger than either sensor's alone (and its bound below both)."""
-    runs = 200
-    both, hull, towed = scenario(), scenario(("hull",)), scenario(("towed",))
-    truth_end = final_position(np.array([TRUTH[k] for k in ("x", "y", "vx", "vy")]))
-    errors = {"both": [], "hull": [], "towed": []}
-    inside = 0
-    rng = np.random.default_rng(20261207)
-    for _ in range(runs):
-        meas = both.simulate(rng=rng)
-        result = tk.estimate(meas, "cv2d")
-        assert result.converged
-        inside += result.region_contains(truth_end, meas, time=T_END)
-        errors["both"].append(final_position(result.estimate) - truth_end)
-        for name, alone in (("hull", hull), ("towed", towed)):
-            own = meas.take(meas.sensor_mask(name))
-            assert len(own) == len(alone.simulate(rng=0, noise=False))
-            errors[name].append(final_position(tk.estimate(own, "cv2d").estimate) - truth_end)
-    rms = {k: float(np.sqrt(np.mean(np.sum(np.square(v), axis=1)))) for k, v in errors.items()}
-    bound = {}
-    for name, scen in (("both", both), ("hull", hull), ("towed", towed)):
-        cov = tk.crlb(scen).covariance[:4, :4]
-        jac = np.array([[1.0, 0.0, T_END, 0.0], [0.0, 1.0, 0.0, T_END]])
-        bound[name] = float(np.sqrt(np.trace(jac @ cov @ jac.T)))
-    assert 181 <= inside <= 199, (inside, rms, bound)
-    assert rms["both"] <= 1.25 * bound["both"], (rms, bound)
-    assert rms["both"] <= min(rms["hull"], rms["towed"]), rms
-    assert bound["both"] < min(bound["hull"], bound["towed"]), bound
+    """200 seeded runs (benchmarks/two_sensors.py): the truth inside the fused fit's 95 % region
+    in 95 % +- 3 binomial sigmas of them (181 to 199 of 200), its final-position RMS within
+    1.25x its CRLB, and that RMS no larger than either sensor's alone (its bound below both)."""
+    r = study(200, 20261207)
+    assert all(r[k]["converged"] == 200 for k in r), r
+    assert 181 <= r["both"]["inside"] <= 199, r
+    assert r["both"]["rms_m"] <= 1.25 * r["both"]["bound_m"], r
+    assert r["both"]["rms_m"] <= min(r["hull"]["rms_m"], r["towed"]["rms_m"]), r
+    assert r["both"]["bound_m"] < min(r["hull"]["bound_m"], r["towed"]["bound_m"]), r
 
 
 # --- real files: Debrief samples (tests/data/debrief, README there) and a wide log ---------
