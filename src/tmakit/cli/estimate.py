@@ -572,7 +572,7 @@ def legs_of(meas: Any, turn_rate: float | None) -> Any:
     if not rate > 0:
         raise fail(f"--turn-rate {turn_rate!r}: expected a heading rate > 0 (deg/s)")
     speed = np.hypot(meas.sensor_state[:, 3], meas.sensor_state[:, 4])
-    if len(own_ship_sensors(meas)) != len(meas.sensors) or not np.any(speed > 0.05):
+    if not np.any(speed > 0.05) or len(own_ship_sensors(meas)) != len(meas.sensors):
         return None
     return own_ship_legs(meas, turn_rate_deg_s=rate)
 

@@ -340,7 +340,7 @@ def own_ship_legs(meas: MeasurementSet, sensor: str | None = None, *,
     else:
         ship = own_ship_sensors(meas, sensor)
     rows = (slice(None) if set(ship) == set(meas.sensors)
-            else np.isin(meas.sensor, np.array(ship)))
+            else np.isin(meas.sensor_code, [meas.sensor_names.index(n) for n in ship]))
     return detect_legs(meas.time[rows], meas.sensor_state[rows],
                        turn_rate_deg_s=turn_rate_deg_s, window_s=window_s,
                        min_turn_deg=min_turn_deg)
@@ -366,7 +366,8 @@ def own_ship_sensors(meas: MeasurementSet, sensor: str | None = None) -> list[st
     """
     names = list(meas.sensors)
     if sensor is None:
-        sensor = max(names, key=lambda n: int(np.count_nonzero(meas.sensor == n)))
+        counts = np.bincount(meas.sensor_code, minlength=len(meas.sensor_names))
+        sensor = max(names, key=lambda n: int(counts[meas.sensor_names.index(n)]))
     if sensor not in names:
         raise ValueError(f"no sensor {sensor!r} in the set (sensors: {', '.join(names)})")
     ship, added = [sensor], [sensor]
@@ -378,7 +379,7 @@ def own_ship_sensors(meas: MeasurementSet, sensor: str | None = None) -> list[st
 
 def _moves_with(meas: MeasurementSet, a: str, b: str) -> bool:
     """Tell whether sensors ``a`` and ``b`` move as one, where their records overlap."""
-    rows = [np.flatnonzero(meas.sensor == n) for n in (a, b)]
+    rows = [np.flatnonzero(meas.sensor_mask(n)) for n in (a, b)]
     rows = [r[np.argsort(meas.time[r], kind="stable")] for r in rows]
     gaps: list[NDArray[np.float64]] = []
     dv: list[NDArray[np.float64]] = []
