@@ -313,13 +313,14 @@ def _merge_small_turns(t: NDArray[np.float64], h: NDArray[np.float64],
 def own_ship_legs(meas: MeasurementSet, sensor: str | None = None, *,
                      turn_rate_deg_s: float = TURN_RATE_DEG_S, window_s: float = RATE_WINDOW_S,
                      min_turn_deg: float = MIN_TURN_DEG) -> LegsAndTurns:
-    """Return the own-ship legs and turns of one sensor of a set (:func:`detect_legs`).
+    """Return the legs and turns of one own ship of a set, all its sensors (:func:`detect_legs`).
 
     Parameters
     ----------
     meas : MeasurementSet
     sensor : str, optional
-        Default the set's only one.
+        Default the set's only one, or every sensor when all are on one own ship
+        (:func:`own_ship_sensors`); a sensor named brings the others on its own ship.
     turn_rate_deg_s, window_s, min_turn_deg : float
         The thresholds (deg/s, s, deg).
 
@@ -330,7 +331,7 @@ def own_ship_legs(meas: MeasurementSet, sensor: str | None = None, *,
     Raises
     ------
     ValueError
-        Several sensors and none named.
+        Several sensors not on one own ship, and none named.
     """
     if sensor is None:
         if len(meas.sensors) != 1 and len(own_ship_sensors(meas)) != len(meas.sensors):
