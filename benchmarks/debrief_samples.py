@@ -111,6 +111,13 @@ SETS = [SampleSet("SATC Force Protection", ("satc/BlueSensor_sparse.rep", "satc/
         SampleSet("AssetData Ambig HM", ("asset_ambig/Ambig_cuts_HM.rep",
                                          "asset_ambig/Ambig_tracks2.rep"),
                   "asset_ambig/Ambig_tracks2.rep", "SUBJECT"),
+        # The own ship's hull and towed arrays fitted together (two sensors of one own ship).
+        SampleSet("S2R hover north HM+TA", ("s2r_hover_north/Ambig_tracks_hover_north.rep",),
+                  "s2r_hover_north/Ambig_tracks_hover_north.rep", "SUBJECT", "SENSOR"),
+        SampleSet("AssetData Ambig HM+TA", ("asset_ambig/Ambig_cuts_TA.rep",
+                                            "asset_ambig/Ambig_cuts_HM.rep",
+                                            "asset_ambig/Ambig_tracks2.rep"),
+                  "asset_ambig/Ambig_tracks2.rep", "SUBJECT"),
         # Of the Frigate's five sensors, only Frigate_Optic holds New_SSK on a straight leg.
         SampleSet("sen_frig Frigate_Optic", ("pepys/sen_frig_sensor.dsf", "pepys/sen_tracks.rep"),
                   "pepys/sen_tracks.rep", "New_SSK", "Frigate", "Frigate_Optic"),

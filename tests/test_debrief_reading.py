@@ -223,10 +223,14 @@ OFFSET = ("100112 120000 SENSOR FA 60 10 48.00 N 000 12 00.00 E 200.00  12.00  0
           ";SENSOR: 100112 120020 SENSOR @A NULL 162.3 0000 BOW_BRG SUBJECT held on BOW_BRG\n")
 
 
-def test_two_sensors_with_cuts_at_one_time_are_named_and_each_is_read(tmp_path):
+def test_two_sensors_with_cuts_at_one_time_are_read_together_each_by_its_name(tmp_path):
     rep = write(tmp_path, "Offset_null_positions.rep", OFFSET)
-    with pytest.raises(MeasurementFileError, match=r"come from 2 sensors of one own ship "
-                       r"\(TAIL_BRG.*BOW_BRG\).*line 3 and line 2.*--contact NAME"):
-        tk.read_measurements(rep)
+    both = tk.read_measurements(rep)
+    assert sorted(both.sensors) == ["SENSOR/BOW_BRG", "SENSOR/TAIL_BRG"]
+    tail = both.sensor_mask("SENSOR/TAIL_BRG")
+    assert np.rad2deg(both.value_si[tail]).tolist() == pytest.approx([166.1, 166.0])
+    assert np.array_equal(both.sensor_state[tail], both.sensor_state[~tail])  # NULL: the ship's
+    assert "2 sensors of own ship 'SENSOR' (TAIL_BRG; BOW_BRG) measure bearing" in "\n".join(
+        reader_notes(both.metadata))
     bow = tk.read_measurements(rep, contact="BOW_BRG")
     assert np.rad2deg(bow.value_si).tolist() == pytest.approx([162.6, 162.3])

@@ -25,6 +25,7 @@ from ..results.own_legs import (
     LegsAndTurns,
     heading_rate,
     own_ship_legs,
+    own_ship_sensors,
 )
 from ..results.solutions import separated_solutions
 
@@ -253,9 +254,9 @@ def resolve_ambiguity(meas: MeasurementSet, motion: MotionModel | str = "cv2d", 
         raise ValueError(f"settle_s {settle_s!r}: expected a time >= 0 (s)")
     twin = ~np.isnan(meas.ambiguous_si)
     hosts = sorted(set(meas.sensor[twin].tolist()))
-    if len(hosts) > 1:
-        raise ValueError(f"ambiguous bearings from several sensors ({', '.join(hosts)}): "
-                         "resolve one own ship's at a time")
+    if len(hosts) > 1 and not set(hosts) <= set(own_ship_sensors(meas, hosts[0])):
+        raise ValueError(f"ambiguous bearings from several sensors ({', '.join(hosts)}) not on "
+                         "one own ship: resolve one own ship's at a time")
     if fit is None:
         from .methods import estimate
 

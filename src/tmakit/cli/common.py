@@ -213,8 +213,9 @@ ContactOption = Annotated[str | None, typer.Option(
     help="Debrief: the contact, a sensor name or the first word of the sensor labels")]
 MappingOption = Annotated[Path | None, typer.Option(
     help="wide CSV/Parquet log: its column mapping (TOML file)")]
-BearingSigmaOption = Annotated[float | None, typer.Option(
-    help="Debrief: bearing noise std (deg); default a ;SENSOR3: line's accuracy, else 1")]
+BearingSigmaOption = Annotated[str | None, typer.Option(
+    help="Debrief: bearing noise std (deg), or one per sensor NAME=DEG,... (a hull and a towed "
+         "array: HM=0.5,TA=2); default a ;SENSOR3: line's accuracy, else 1")]
 RangeSigmaOption = Annotated[float | None, typer.Option(
     metavar="M", help="Debrief: range noise std (m), default 100")]
 FrequencySigmaOption = Annotated[float | None, typer.Option(
@@ -262,7 +263,7 @@ def reads_logs(after: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]
 
 
 def reader_options(format: str | None, ownship: str | None, contact: str | None,
-                   mapping: Path | None, bearing_sigma: float | None,
+                   mapping: Path | None, bearing_sigma: str | None,
                    range_sigma: float | None = None,
                    frequency_sigma: float | None = None, *, kinds: str | None = None,
                    ranges: str | None = None) -> dict[str, Any]:
@@ -272,6 +273,25 @@ def reader_options(format: str | None, ownship: str | None, contact: str | None,
     return {"format": format, "ownship": ownship, "contact": contact, "mapping": mapping,
             "bearing_sigma": bearing_sigma, "range_sigma": range_sigma,
             "frequency_sigma": frequency_sigma, "kinds": kinds, "ranges": ranges}
+
+
+def bearing_sigmas(text: str | float) -> float | dict[str, float]:
+    """Parse ``--bearing-sigma``: one std (deg), or ``NAME=DEG,...`` one per sensor."""
+    try:
+        return float(text)
+    except ValueError:
+        pass
+    out: dict[str, float] = {}
+    for part in str(text).split(","):
+        name, eq, value = part.partition("=")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            name = ""
+        if not eq or not name.strip():
+            raise fail(f"--bearing-sigma {text!r}: expected a std in degrees (0.5), or one per "
+                       "sensor, NAME=DEG,... (HM=0.5,TA=2)") from None
+    return out
 
 
 class FaultInWrittenLines(typer.Exit):
@@ -300,7 +320,7 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
     kinds = parse_kinds(options.pop("kinds", None))
     options = log_options(paths, options, kinds)
     if "bearing_sigma" in options:  # --bearing-sigma is in degrees
-        options["bearing_sigma_deg"] = options.pop("bearing_sigma")
+        options["bearing_sigma_deg"] = bearing_sigmas(options.pop("bearing_sigma"))
     try:
         meas = read_measurements(paths[0] if len(paths) == 1 else paths, origin=origin, **options)
     except OSError as e:

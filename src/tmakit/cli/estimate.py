@@ -198,7 +198,7 @@ def fit_leg_by_leg(meas: Any, fit: Any, turns: tuple[bool, float | None, float |
     result, fitted = fit_with_ambiguity(meas, fit, turns, as_json, legs)
     legs = legs_of(meas, turns[2]) if legs is None else legs
     if legs is not None:
-        result.extra["legs"] = {"sensor": meas.sensors[0], **legs.as_dict()}
+        result.extra["legs"] = {"sensor": ", ".join(meas.sensors), **legs.as_dict()}
     target = contact_legs(result, fitted)
     if target is not None:
         result.extra["contact_legs"] = target
@@ -563,16 +563,16 @@ def answer_or_fail(source: Any, meas: Any, sensor: str | None, **where: Any) -> 
 
 
 def legs_of(meas: Any, turn_rate: float | None) -> Any:
-    """Return the own ship's legs (None when the set has several sensors or one that is still)."""
+    """Return the own ship's legs (None when its sensors are not on one own ship, or still)."""
     import numpy as np
 
-    from ..results.own_legs import TURN_RATE_DEG_S, own_ship_legs
+    from ..results.own_legs import TURN_RATE_DEG_S, own_ship_legs, own_ship_sensors
 
     rate = TURN_RATE_DEG_S if turn_rate is None else turn_rate
     if not rate > 0:
         raise fail(f"--turn-rate {turn_rate!r}: expected a heading rate > 0 (deg/s)")
-    if len(meas.sensors) != 1 or not np.any(np.hypot(meas.sensor_state[:, 3],
-                                                     meas.sensor_state[:, 4]) > 0.05):
+    speed = np.hypot(meas.sensor_state[:, 3], meas.sensor_state[:, 4])
+    if not np.any(speed > 0.05) or len(own_ship_sensors(meas)) != len(meas.sensors):
         return None
     return own_ship_legs(meas, turn_rate_deg_s=rate)
 
@@ -582,8 +582,9 @@ def leg_window(meas: Any, leg: int | None, start: str | None, stop: str | None, 
     """Return ``--from``/``--to`` (seconds as text) for ``--leg N`` or ``--snap``."""
     legs = legs_of(meas, turn_rate)
     if legs is None:
-        raise fail("--leg/--snap: own-ship legs need one moving sensor (the own ship); the "
-                   f"set has {len(meas.sensors)} sensor(s): {', '.join(meas.sensors)}")
+        raise fail("--leg/--snap: own-ship legs need one moving own ship (its sensors within "
+                   "2 km of each other, moving as one); the set has "
+                   f"{len(meas.sensors)} sensor(s): {', '.join(meas.sensors)}")
     if leg is not None:
         if start is not None or stop is not None:
             raise fail("--leg N sets the window: give it without --from/--to (or --from/--to "

@@ -384,6 +384,8 @@ def _replay_sigmas(meta: dict[str, str], kinds: set[str]) -> str:
     given = [f"{kind} {float(meta[key]):g} {unit}" for kind, key, unit in (
         ("bearing", "bearing_sigma_deg", "deg"), ("range", "range_sigma_m", "m"),
         ("frequency", "frequency_sigma_hz", "Hz")) if kind in kinds and key in meta]
+    if "bearing_sigma_by_sensor_deg" in meta and "bearing" in kinds:
+        given.append(f"bearing by sensor {meta['bearing_sigma_by_sensor_deg']} deg")
     stated = int(meta.get("sigma_from_file", "0"))
     where = (f"; {stated} ;SENSOR3: lines state their own accuracy" if stated
              else " (not in the file)")

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Collection, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
@@ -498,7 +498,8 @@ def _kinds(where: Path, kinds: Collection[str] | None) -> set[str]:
 def _default_sigmas(path: Path, bearing: float | None, range_: float | None,
                     frequency: float | None) -> tuple[dict[str, float], set[str]]:
     """Return the sigmas of lines stating none (deg, m, Hz) and the kinds the user gave."""
-    given = {"bearing": bearing, "range": range_, "frequency": frequency}
+    given: dict[str, float | None] = {"bearing": bearing, "range": range_,
+                                      "frequency": frequency}
     default = {"bearing": DEFAULT_BEARING_SIGMA_DEG, "range": DEFAULT_RANGE_SIGMA_M,
                "frequency": DEFAULT_FREQUENCY_SIGMA_HZ}
     sig = {k: default[k] if v is None else v for k, v in given.items()}
@@ -510,7 +511,8 @@ def _default_sigmas(path: Path, bearing: float | None, range_: float | None,
 
 def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
                 ownship: str | None = None, contact: str | None = None,
-                bearing_sigma: float | None = None, range_sigma: float | None = None,
+                bearing_sigma: float | Mapping[str, float] | None = None,
+                range_sigma: float | None = None,
                 frequency_sigma: float | None = None, dim: int | None = None,
                 ranges: str | None = None, kinds: Collection[str] | None = None,
                 window: Sequence[str | None] | None = None, **_: object) -> MeasurementSet:
@@ -518,7 +520,9 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
     paths, where = _paths(path)
     if ranges not in (None, *_RANGES_CHOICES):
         raise MeasurementFileError(where, [f"ranges {ranges!r}: expected use or ignore"])
-    sig, asked = _default_sigmas(where, bearing_sigma, range_sigma, frequency_sigma)
+    by_sensor = dict(bearing_sigma) if isinstance(bearing_sigma, Mapping) else {}
+    one = None if isinstance(bearing_sigma, Mapping) else bearing_sigma
+    sig, asked = _default_sigmas(where, one, range_sigma, frequency_sigma)
     wanted = _kinds(where, kinds)
     notes: list[str] = []
     cuts = _cuts(where, paths, ownship, contact, window, origin, dim, notes)
@@ -527,14 +531,18 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
     t = relative_seconds(np.array([s.time_ns for s in cuts.rows], np.int64), cuts.origin_ns)
     si = {"bearing": np.deg2rad(sig["bearing"]), "range": sig["range"],
           "frequency": sig["frequency"]}
-    times, kinds_, values, sigmas, st, lines, twins, tonals = _cut_rows(
-        cuts.rows, cuts.states, t, si, asked, wanted, no_range)
+    columns = _one_copy(_cut_rows(cuts.rows, cuts.states, t, si, asked, wanted, no_range,
+                                  _sigma_by_sensor(where, cuts, by_sensor)), notes)
+    times, kinds_, values, sigmas, st, lines, twins, tonals, names = columns
     if not times:
         raise MeasurementFileError(where, [
             f"the sensor lines of {cuts.host!r} measure nothing of {', '.join(sorted(wanted))} "
             "(every such field is NULL" + (", or a placeholder range" if no_range.any() else "")
             + ")"])
     metadata = _metadata(paths, cuts, contact, sig, int(np.isfinite(twins).sum()), notes)
+    if by_sensor:
+        metadata["bearing_sigma_by_sensor_deg"] = ", ".join(
+            f"{k.strip()}={v:g}" for k, v in by_sensor.items())
     if "frequency" in kinds_:  # Debrief's frequencies are sonar tonals
         metadata["frequency_propagation_speed"] = repr(SOUND_SPEED_SEA_M_S)
         tonal_names = list(dict.fromkeys(t for t in tonals if t))
@@ -543,11 +551,74 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
               f"{len(tonal_names)} tonal(s) ({_listed(tonal_names)}), each with its own "
               "unknown base frequency f0")
     raw = MeasurementSet.from_si(
-        np.array(times), np.full(len(times), cuts.host), np.array(kinds_), np.array(values),
+        np.array(times), _sensor_ids(cuts.host, names, kinds_, metadata), np.array(kinds_),
+        np.array(values),
         np.array(sigmas), np.array(st), metadata=metadata, check=False)
     raw = raw.with_ambiguous(np.array(twins))
     return _checked(where, raw.with_tonal(tonals) if "frequency" in kinds_ else raw, lines,
                     cuts.rows)
+
+
+def _sigma_by_sensor(where: Path, cuts: _Cuts, by_sensor: dict[str, float]) -> dict[str, float]:
+    """Check per-sensor bearing sigmas (deg; names as in the file, or HOST/NAME): SI by name."""
+    names = list(dict.fromkeys(s.sensor for s in cuts.rows))
+    out, bad = {}, []
+    for key, value in by_sensor.items():
+        name = key.strip().removeprefix(f"{cuts.host}/")
+        if name not in names:
+            bad.append(f"bearing sigma of sensor {key!r}: no cut of own ship {cuts.host!r} is "
+                       f"from it (sensors: {_listed(names)})")
+        elif not (isinstance(value, int | float) and value > 0):
+            bad.append(f"bearing sigma of sensor {key!r}: {value!r}, expected a number > 0 (deg)")
+        else:
+            out[name] = float(np.deg2rad(value))
+    if bad:
+        raise MeasurementFileError(where, bad)
+    return out
+
+
+def _one_copy(columns: tuple[list, ...], notes: list[str]) -> tuple[list, ...]:
+    """Drop a sensor's values that repeat another's at every time both measure (copies)."""
+    times, kinds, values, names = columns[0], columns[1], columns[2], columns[8]
+    by_time: dict[tuple[float, str], dict[str, float]] = {}
+    for t, kind, value, name in zip(times, kinds, values, names, strict=True):
+        by_time.setdefault((t, kind), {}).setdefault(name, value)
+    common: dict[tuple[str, str, str], list[bool]] = {}  # (copy, of, kind): equal at each time
+    for (_, kind), seen in by_time.items():
+        order = list(seen)
+        for k, b in enumerate(order):
+            for a in order[:k]:
+                common.setdefault((b, a, kind), []).append(seen[a] == seen[b])
+    copies = {key: len(eq) for key, eq in common.items() if len(eq) >= 3 and all(eq)
+              and not any(key[1] == c[0] and key[2] == c[2] for c in common if all(common[c]))}
+    if not copies:
+        return columns
+    drop = {(t, kind, name) for (t, kind), seen in by_time.items() for name in seen
+            if any((name, a, kind) in copies for a in seen)}
+    notes.append("note: a sensor of the own ship repeats another's values at every time both "
+                 "measure (copies of one cut, read once as a cut written twice): " + _listed(
+                     [f"{n} {kind}(s) of {b} repeat {a}" for (b, a, kind), n in copies.items()]))
+    keep = [i for i, key in enumerate(zip(times, kinds, names, strict=True)) if key not in drop]
+    return tuple([col[i] for i in keep] for col in columns)
+
+
+def _sensor_ids(host: str, names: list[str], kinds: list[str],
+                metadata: dict[str, str]) -> NDArray[np.str_]:
+    """Name each value's sensor: the own ship, or HOST/SENSOR where two sensors share a kind."""
+    by_kind: dict[str, set[str]] = {}
+    for name, kind in zip(names, kinds, strict=True):
+        if kind != "frequency":  # each sensor's frequencies are a tonal of their own already
+            by_kind.setdefault(kind, set()).add(name)
+    shared = sorted(k for k, n in by_kind.items() if len(n) > 1)
+    if not shared:
+        return np.full(len(names), host)
+    told = list(dict.fromkeys(names))
+    ids = _listed([f"{host}/{n}" for n in told])
+    _note(metadata, f"note: {len(told)} sensors of own ship {host!r} ({_listed(told)}) measure "
+          f"{' and '.join(shared)}: each is a sensor of its own ({ids}), at the positions its "
+          "cuts state, else the own ship's (a sensor set apart, a towed array astern, needs its "
+          "positions in its cuts), and their cuts are fitted together (--contact NAME fits one)")
+    return np.array([f"{host}/{n}" for n in names])
 
 
 def _note(metadata: dict[str, str], note: str) -> None:
@@ -598,16 +669,9 @@ def _checked(path: Path, raw: MeasurementSet, lines: list[str],
     except MeasurementFileError as e:
         twice = [p for p in e.problems if "two values at one time" in p]
         contacts = list(dict.fromkeys(s.label.split()[0] for s in rows if s.label.split()))
-        sensors = list(dict.fromkeys(s.sensor for s in rows))
-        if not twice or (len(contacts) < 2 and len(sensors) < 2):
+        if not twice or len(contacts) < 2:  # two sensors of one kind have ids of their own
             raise
         other = twice[0].partition("at the time of ")[2].partition(" (")[0]
-        if len(contacts) < 2:
-            raise MeasurementFileError(path, [  # two sensors of the own ship at one time
-                f"the cuts read come from {len(sensors)} sensors of one own ship "
-                f"({_listed(sensors)}), two of them with a cut at one time "
-                f"({twice[0].split(':')[0]} and {other}): tmakit fits one sensor's cuts of a "
-                "kind at a time; choose one with --contact NAME (a sensor name)"]) from None
         raise MeasurementFileError(path, [  # cuts of several contacts at one time
             f"the cuts read name {len(contacts)} contacts ({_listed(contacts)}), two of them "
             f"at one time ({twice[0].split(':')[0]} and {other}): one fit cannot take "
@@ -822,10 +886,10 @@ def _placeholder_ranges(rows: list[SensorLine], ranges: str | None,
 
 def _cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np.float64],
              sigmas: dict[str, float], asked: set[str], kinds: Collection[str],
-             no_range: NDArray[np.bool_]
-             ) -> tuple[list, list, list, list, list, list, list, list]:
-    """Return the (time, kind, SI value, SI sigma, state, line, twin, tonal) of each value used."""
-    out: tuple[list, ...] = ([], [], [], [], [], [], [], [])
+             no_range: NDArray[np.bool_], bearing_by_sensor: dict[str, float]
+             ) -> tuple[list, list, list, list, list, list, list, list, list]:
+    """Return the (time, kind, SI value, SI sigma, state, line, twin, tonal, sensor) of each."""
+    out: tuple[list, ...] = ([], [], [], [], [], [], [], [], [])
     for k, s in enumerate(rows):
         stated = {"bearing": None if s.bearing_accuracy is None
                   else float(np.deg2rad(s.bearing_accuracy)),
@@ -838,10 +902,12 @@ def _cut_rows(rows: list[SensorLine], states: NDArray[np.float64], t: NDArray[np
                   else value * YARD if kind == "range" else value)
             line_sigma = stated.get(kind)
             sigma = sigmas[kind] if line_sigma is None or kind in asked else line_sigma
+            if kind == "bearing" and s.sensor in bearing_by_sensor:  # the user's, by sensor
+                sigma = bearing_by_sensor[s.sensor]
             twin = (float(np.deg2rad(s.ambiguous)) if kind == "bearing"
                     and s.ambiguous is not None else np.nan)
             tonal = s.sensor if kind == "frequency" else ""  # a sensor's tonal line
             for col, item in zip(out, (t[k], kind, si, sigma, states[k], _at_line(s), twin,
-                                       tonal), strict=True):
+                                       tonal, s.sensor), strict=True):
                 col.append(item)
     return out  # type: ignore[return-value]

@@ -116,6 +116,7 @@ class MeasurementMap(_Strict):
     sigma_column: str | None = None
     reference: Literal["true", "relative"] = "true"
     ambiguous: str | None = None
+    sensor: str | None = Field(default=None, min_length=1)
 
     @model_validator(mode="after")
     def _kind_unit(self) -> MeasurementMap:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Collection, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from pathlib import Path
 
 from ..core.keywords import NOT_GIVEN, NotGiven, renamed_keyword
@@ -30,7 +30,8 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
                       format: str | None = None, mapping: object = None,
                       measurements: str | os.PathLike[str] | None = None,
                       track: str | os.PathLike[str] | None = None, ownship: str | None = None,
-                      contact: str | None = None, bearing_sigma_deg: float | None = None,
+                      contact: str | None = None,
+                      bearing_sigma_deg: float | Mapping[str, float] | None = None,
                       range_sigma: float | None = None, frequency_sigma: float | None = None,
                       dim: int | None = None, ranges: str | None = None,
                       kinds: Collection[str] | None = None,
@@ -64,7 +65,8 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
         (:func:`tmakit.io.debrief.read_replay`).
     bearing_sigma_deg, range_sigma, frequency_sigma : float, optional
         Debrief replays: the noise of lines that state none (deg, m, Hz; as
-        ``tma --bearing-sigma``).
+        ``tma --bearing-sigma``); ``bearing_sigma_deg`` may map sensor names to their own
+        (``{"HM": 0.5, "TA": 2.0}``: a hull and a towed array; the others 1 deg).
     dim : int, optional
         Real logs: 2 or 3, instead of the surface rule.
     ranges : {"use", "ignore"}, optional

@@ -341,12 +341,32 @@ def _twins(tab: _Table, column: str, unit: str, rows: NDArray[np.intp]) -> NDArr
     return twin
 
 
+def _column_sensors(m: LogMapping, metadata: dict[str, str]) -> dict[str, str]:
+    """Name columns' own sensors: its ``sensor`` key, else its name where columns share a kind."""
+    named = {s.column: s.sensor for s in m.measurement if s.sensor is not None}
+    kinds = [s.kind for s in m.measurement if s.sensor is None and s.kind != "frequency"]
+    shared = [s for s in m.measurement if s.sensor is None and s.kind != "frequency"
+              and kinds.count(s.kind) > 1]
+    if shared:
+        base = "ID" if m.sensor_column else m.sensor
+        note = (f"note: {len(shared)} columns measure one kind on one sensor "
+                f"({', '.join(s.column for s in shared)}): each is a sensor of its own on the "
+                f"same platform ({', '.join(f'{base}/{s.column}' for s in shared)}), fitted "
+                "together; a measurement's sensor key names it")
+        old = metadata.get(READER_NOTES_KEY)
+        metadata[READER_NOTES_KEY] = note if not old else NOTES_SEPARATOR.join((old, note))
+        prefix = "" if m.sensor_column else f"{m.sensor}/"  # a sensor column's ids prefix them
+        named.update({s.column: prefix + s.column for s in shared})
+    return named
+
+
 def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArray[np.float64],
               metadata: dict[str, str]) -> MeasurementSet:
     """Make the set: the cells checked as read by the file's rules, then made true and wrapped."""
     from .log_mapping import UNITS
 
     ids = _sensor_ids(tab, m)
+    own = _column_sensors(m, metadata)
     parts: list[tuple[NDArray, ...]] = []
     where: list[str] = []
     for spec in m.measurement:
@@ -357,7 +377,10 @@ def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArra
         scale, offset = UNITS[spec.kind][spec.unit]
         twin = (_twins(tab, spec.ambiguous, spec.unit, rows) * scale if spec.ambiguous
                 else np.full(rows.size, np.nan))
-        parts.append((t[rows], ids[rows], np.full(rows.size, spec.kind),
+        sensor = ids[rows] if spec.column not in own else np.char.add(
+            ids[rows], "/" + own[spec.column]) if m.sensor_column else np.full(
+            rows.size, own[spec.column])
+        parts.append((t[rows], sensor, np.full(rows.size, spec.kind),
                       value[rows] * scale + offset, sigma[rows] * scale, states[rows], rows,
                       twin, np.full(rows.size, spec.column if spec.kind == "frequency" else "")))
         where += [tab.where(int(k), spec.column) for k in rows]

@@ -25,6 +25,13 @@ HOLDS_COURSE_SPEED = 0.5
 """Below this speed (m/s) a sensor holds no course: the heading of a navigation velocity that
 small is the receiver's noise (a GPS velocity has 0.05-0.3 m/s of it), so it makes no turn."""
 
+ONE_SHIP_M = 2000.0
+"""Sensors whose paths stay within this distance (m) of each other, at the same velocity, are
+on one own ship (a hull array and a towed array on its cable, two receivers on one UAV)."""
+
+ONE_SHIP_SPEED = 2.0
+"""The median difference of their velocities (m/s) below which two such sensors move as one."""
+
 
 @dataclass(frozen=True)
 class Leg:
@@ -98,7 +105,9 @@ def range_words(meas: MeasurementSet, sensor: str, manoeuvring_model: bool = Fal
                "bearings fit the target at any range; only a moving sensor that changes course "
                "can give range")
     else:
-        how = (f"the own ship {sensor} did not manoeuvre during these bearings (one straight leg: "
+        ship = own_ship_sensors(meas, sensor)
+        who = sensor if len(ship) == 1 else f"of sensors {' and '.join(ship)}"
+        how = (f"the own ship {who} did not manoeuvre during these bearings (one straight leg: "
                f"{spans}), so the bearings fit the target at any range, and its speed along the "
                "line of sight with it. A turn of 30° or more (or a change of speed) for a second "
                "leg about as long as the first lets range be determined")
@@ -304,13 +313,14 @@ def _merge_small_turns(t: NDArray[np.float64], h: NDArray[np.float64],
 def own_ship_legs(meas: MeasurementSet, sensor: str | None = None, *,
                      turn_rate_deg_s: float = TURN_RATE_DEG_S, window_s: float = RATE_WINDOW_S,
                      min_turn_deg: float = MIN_TURN_DEG) -> LegsAndTurns:
-    """Return the own-ship legs and turns of one sensor of a set (:func:`detect_legs`).
+    """Return the legs and turns of one own ship of a set, all its sensors (:func:`detect_legs`).
 
     Parameters
     ----------
     meas : MeasurementSet
     sensor : str, optional
-        Default the set's only one.
+        Default the set's only one, or every sensor when all are on one own ship
+        (:func:`own_ship_sensors`); a sensor named brings the others on its own ship.
     turn_rate_deg_s, window_s, min_turn_deg : float
         The thresholds (deg/s, s, deg).
 
@@ -321,17 +331,73 @@ def own_ship_legs(meas: MeasurementSet, sensor: str | None = None, *,
     Raises
     ------
     ValueError
-        Several sensors and none named.
+        Several sensors not on one own ship, and none named.
     """
     if sensor is None:
-        if len(meas.sensors) != 1:
-            raise ValueError(f"the set has several sensors ({', '.join(meas.sensors)}): name "
-                             "the own ship whose legs are wanted")
-        sensor = meas.sensors[0]
-    rows = slice(None) if list(meas.sensors) == [sensor] else meas.sensor_mask(sensor)
+        if len(meas.sensors) != 1 and len(own_ship_sensors(meas)) != len(meas.sensors):
+            raise ValueError(f"the set has several sensors ({', '.join(meas.sensors)}) not on "
+                             "one own ship: name the own ship whose legs are wanted")
+        ship = list(meas.sensors)
+    else:
+        ship = own_ship_sensors(meas, sensor)
+    rows = (slice(None) if set(ship) == set(meas.sensors)
+            else np.isin(meas.sensor_code, [meas.sensor_names.index(n) for n in ship]))
     return detect_legs(meas.time[rows], meas.sensor_state[rows],
                        turn_rate_deg_s=turn_rate_deg_s, window_s=window_s,
                        min_turn_deg=min_turn_deg)
+
+
+def own_ship_sensors(meas: MeasurementSet, sensor: str | None = None) -> list[str]:
+    """Return the sensors on one own ship with ``sensor`` (default: the one with most rows).
+
+    Two sensors are on one own ship when, over the time both record, each one's positions lie
+    within :data:`ONE_SHIP_M` of the other's path (interpolated between its rows) and their
+    velocities differ by less than :data:`ONE_SHIP_SPEED` (median): a hull-mounted and a
+    towed array, or two receivers on one aircraft; or when both are so with a third.
+
+    Parameters
+    ----------
+    meas : MeasurementSet
+    sensor : str, optional
+
+    Returns
+    -------
+    list of str
+        ``sensor`` first, then the others on its own ship in the set's order.
+    """
+    names = list(meas.sensors)
+    if sensor is None:
+        counts = np.bincount(meas.sensor_code, minlength=len(meas.sensor_names))
+        sensor = max(names, key=lambda n: int(counts[meas.sensor_names.index(n)]))
+    if sensor not in names:
+        raise ValueError(f"no sensor {sensor!r} in the set (sensors: {', '.join(names)})")
+    ship, added = [sensor], [sensor]
+    while added:  # through a third sensor where two records do not overlap
+        added = [n for n in names if n not in ship and any(_moves_with(meas, a, n) for a in added)]
+        ship += added
+    return [sensor] + [n for n in names if n in ship[1:]]
+
+
+def _moves_with(meas: MeasurementSet, a: str, b: str) -> bool:
+    """Tell whether sensors ``a`` and ``b`` move as one, where their records overlap."""
+    rows = [np.flatnonzero(meas.sensor_mask(n)) for n in (a, b)]
+    rows = [r[np.argsort(meas.time[r], kind="stable")] for r in rows]
+    gaps: list[NDArray[np.float64]] = []
+    dv: list[NDArray[np.float64]] = []
+    for ref, other in (rows, rows[::-1]):
+        t_ref, t = meas.time[ref], meas.time[other]
+        inside = other[(t >= t_ref[0]) & (t <= t_ref[-1])]
+        if t_ref.size < 2 or not inside.size:
+            continue
+        at = meas.time[inside]
+        for col, out in ((slice(0, 2), gaps), (slice(3, 5), dv)):
+            path = np.column_stack([np.interp(at, t_ref, meas.sensor_state[ref, k])
+                                    for k in range(col.start, col.stop)])
+            out.append(np.hypot(*(path - meas.sensor_state[inside, col]).T))
+    if not gaps:
+        return False
+    return bool(np.max(np.concatenate(gaps)) <= ONE_SHIP_M
+                and np.median(np.concatenate(dv)) < ONE_SHIP_SPEED)
 
 
 def contact_legs(result: Any, meas: MeasurementSet) -> list[dict[str, float | None]] | None:
