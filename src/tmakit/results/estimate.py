@@ -385,7 +385,7 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.
     motion = obs.motion
     n = len(obs.meas)
     names_nu = obs.nuisance_names
-    if not np.isfinite(theta).all() or not math.isfinite(cost):
+    if not np.logical_and.reduce(np.isfinite(theta)) or not math.isfinite(cost):
         return diverged_result(motion, names_nu, iterations, n - motion.n_params, method,
                                "the solve left the region where the model is defined "
                                "(non-finite predictions)", starts)

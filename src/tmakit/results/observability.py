@@ -234,7 +234,7 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
     top = max(high, _TINY)
     if low > RANK_TOL * top:  # full rank (eigenvalues ascending), said in floats
         return Observability(size, size, top / low, np.zeros((size, 0)),
-                             np.ones(size, dtype=bool), (evals, evecs, scale))
+                             np.array([True] * size), (evals, evecs, scale))
     null = evals <= RANK_TOL * top
     rank = int(size - null.sum())
     positive = evals[~null]
