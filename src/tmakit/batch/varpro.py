@@ -238,12 +238,12 @@ class VarProProblem:
         -------
         ndarray
         """
-        y = np.atleast_2d(y)
-        b = y.shape[0]
+        b = y.shape[0] if y.ndim == 2 else 1
         if self.fixed is not None:
             return np.broadcast_to(self.fixed, (b, self.k)).copy()
         if self.k == 0:
             return np.zeros((b, 0))
+        y = np.atleast_2d(y)
         if self._reference_fit is None:  # least squares on the rows the design touches
             design = self.const_design
             rows = ~self.angle & (design != 0).any(axis=1)

@@ -396,7 +396,7 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.
         info, decomposition = _information(obs, noise, theta, nu, known, jacobian), None
     names = motion.param_names + (() if known else names_nu)
     values = theta if known else np.concatenate([theta, nu]) if len(nu) else theta.copy()
-    nu_values = dict(zip(names_nu, nu, strict=True))
+    nu_values = dict(zip(names_nu, nu, strict=True)) if names_nu else {}
     bound = bound_from_information(info, names, values, obs.meas, motion,
                                    KnownNuisance(nu_values) if known else None, nu_values,
                                    decomposition)
