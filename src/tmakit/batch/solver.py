@@ -150,9 +150,7 @@ class GaussNewtonModel:
             return None
         w = np.maximum(evals, 1e-12 * float(evals[-1]))  # floored as in :meth:`at`
         vg = (grad / scale).dot(v)
-        bound = gtol * math.sqrt(2.0 * cost)  # (the test of :meth:`at` in floats, same bits)
-        small = all(abs(g) <= bound * s for g, s in zip(grad.tolist(), scale.tolist(),
-                                                          strict=True))
+        small = all((np.abs(grad) <= gtol * math.sqrt(2.0 * cost) * scale).tolist())
         return cls(w[None], v[None], vg[None], scale[None],
                    np.array([0.5 * vg.dot(vg / w)]), np.array([small]), jtj[None], evals[None])
 

@@ -385,12 +385,12 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.
     motion = obs.motion
     n = len(obs.meas)
     names_nu = obs.nuisance_names
-    if not np.logical_and.reduce(np.isfinite(theta)) or not math.isfinite(cost):
+    if not (math.isfinite(cost) and all(map(math.isfinite, theta.tolist()))):
         return diverged_result(motion, names_nu, iterations, n - motion.n_params, method,
                                "the solve left the region where the model is defined "
                                "(non-finite predictions)", starts)
     n_info = motion.n_params + (0 if known else len(names_nu))
-    if information is not None and np.shape(information) == (n_info, n_info):
+    if information is not None and information.shape == (n_info, n_info):
         info = np.asarray(information, dtype=float)
     else:
         info, decomposition = _information(obs, noise, theta, nu, known, jacobian), None
