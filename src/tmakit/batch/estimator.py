@@ -43,7 +43,7 @@ class BatchEstimator(ABC):
 def theta_from_init(motion: MotionModel, init: Mapping[str, float] | ArrayLike, prefix: str = "",
                     named_only: bool = False) -> NDArray[np.float64]:
     """Give a start ``(p,)`` from names (``named_only``: others ignored) or a vector, checked."""
-    if isinstance(init, Mapping):
+    if not isinstance(init, np.ndarray) and isinstance(init, Mapping):  # (an ABC's test: slow)
         return motion.theta({k: v for k, v in init.items() if k in motion.param_names}
                             if named_only else init)
     theta = np.asarray(init, dtype=float).reshape(-1)

@@ -19,7 +19,7 @@ from .estimator import BatchEstimator, Init, Options, refuse_manoeuvre_options
 from .hyperbolic import ChanHo, HoXu
 from .init import GridSettings
 from .manoeuvre import ManoeuvreEstimator, ManoeuvreSettings
-from .ml import estimate as estimate_ml
+from .ml import MaximumLikelihood
 from .papers import GuDirect, LectureGaussNewton, RatioMethod
 
 __all__ = ["METHODS", "EstimatorSettings", "MLByMotion", "Method", "estimate", "estimate_with",
@@ -127,9 +127,8 @@ class MLByMotion(BatchEstimator):
                 init=self.init, options=self.options, known_nuisance=self.known_nuisance,
                 max_iter=self.max_iter, **given).fit(meas, motion)
         refuse_manoeuvre_options(given, motion)
-        return estimate_ml(meas, motion, init=self.init, options=self.options,
-                           known_nuisance=self.known_nuisance, grid=self.grid,
-                           max_iter=self.max_iter)
+        return MaximumLikelihood(self.init, self.options, self.known_nuisance, self.grid,
+                                 self.max_iter).fit(meas, motion)
 
 
 def estimate(meas: MeasurementSet, motion: MotionModel | str, init: Init = None,

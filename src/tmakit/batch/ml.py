@@ -146,6 +146,8 @@ def _solutions(problem: VarProProblem, res: EstimateResult, best: Best,
 def _jacobians(obs: ObservationModel, bests: Sequence[Best | Exception]
                ) -> dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]]:
     """Return the grouped Jacobians at several finite fits in one evaluation, by ``id(fit)``."""
+    if len(bests) < 2:
+        return {}
     fits = [b for b in bests if isinstance(b, Best) and b.information is None
             and np.all(np.isfinite(b.theta)) and np.isfinite(b.cost)]
     if len(fits) < 2:

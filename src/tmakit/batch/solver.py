@@ -55,7 +55,7 @@ def information_of(problem: VarProProblem, ev: Evaluation, run: int,
     """Give the Fisher information ``J' R^-1 J`` at run ``run``'s evaluated point, if it has it."""
     if problem.eliminates:
         return None
-    if known is not None and np.isfinite(known[run]).all():
+    if known is not None and _ALL(np.isfinite(known[run]), axis=None):
         return np.array(known[run], dtype=float)
     if ev.normal is not None:
         return np.array(ev.normal[0][run], dtype=float)
@@ -65,6 +65,8 @@ def information_of(problem: VarProProblem, ev: Evaluation, run: int,
 
 
 _DIRECT_EIGH = 32  # largest matrix decomposed by a direct LAPACK call
+# (the ufuncs' reductions called directly: ndarray.all and .any go through Python)
+_ALL, _ANY = np.logical_and.reduce, np.logical_or.reduce
 
 
 def _selected_layout(jac: Array) -> bool:
@@ -288,13 +290,13 @@ class _Runs:
         # a single run's previous point and its J'J (how fast J'J changes: information_steady)
         self.previous: tuple[Array, Array] | None = None
         finite = np.isfinite(out.cost)
-        if not finite.all():
+        if not _ALL(finite):
             self.stop(~finite, np.zeros(b, dtype=bool))
 
     def stop(self, mask: NDArray[np.bool_], converged: NDArray[np.bool_],
              dominated: NDArray[np.bool_] | None = None) -> None:
         """Record the runs ``mask`` as stopped and drop them from the live arrays."""
-        if not mask.any():
+        if not _ANY(mask):
             return
         b = self.out.cost.shape[0]
         ids = self.ids[mask]

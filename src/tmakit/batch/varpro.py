@@ -188,7 +188,8 @@ class VarProProblem:
         self.const_design = obs.const_design
         self.const_design_w = (self.noise.whiten(self.const_design, axis=-2) if self.k
                                else self.const_design)  # (n, 0): nothing to whiten
-        self._const_w_t = np.ascontiguousarray(self.const_design_w.T)  # (k, n)
+        # (k, n), read by the elimination only
+        self._const_w_t = np.ascontiguousarray(self.const_design_w.T) if self.k else None
         self._reference_fit: tuple[NDArray[np.bool_], NDArray[np.bool_], Array] | None = None
         # One nuisance column per kind at most: the columns touch disjoint rows (whitening
         # mixes rows of one kind only), so they are orthogonal and need no Gram inverse.
@@ -237,12 +238,12 @@ class VarProProblem:
         -------
         ndarray
         """
-        y = np.atleast_2d(y)
-        b = y.shape[0]
+        b = y.shape[0] if y.ndim == 2 else 1
         if self.fixed is not None:
             return np.broadcast_to(self.fixed, (b, self.k)).copy()
         if self.k == 0:
             return np.zeros((b, 0))
+        y = np.atleast_2d(y)
         if self._reference_fit is None:  # least squares on the rows the design touches
             design = self.const_design
             rows = ~self.angle & (design != 0).any(axis=1)
@@ -405,6 +406,7 @@ class VarProProblem:
     def _project(self, lin: Linearisation, nu_star: Array, at: Array, r: Array,
                  with_jacobian: bool) -> tuple[Array, Array, Array | None]:
         """Eliminate the nuisance: give ``nu``, the projected residual and Jacobian."""
+        assert self._const_w_t is not None  # (made when there is a nuisance)
         q = self._const_w_t + self.noise.whiten(at)
         norm = np.sqrt(np.einsum("bkn,bkn->bk", q, q))
         empty = norm == 0

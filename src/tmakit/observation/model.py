@@ -39,12 +39,12 @@ class ObservationModel:
 
     def __init__(self, meas: MeasurementSet, motion: MotionModel,
                  options: Mapping[str, Mapping[str, object]] | None = None) -> None:
-        options = options_with_metadata(meas.kinds, options, meas.metadata)
+        kinds = meas.kinds
+        options = options_with_metadata(kinds, options, meas.metadata)
         self.options = options  #: the per-kind model options, given or stated by the file
         self.motion = motion
-        self.models: dict[str, MeasurementModel] = {
-            k: model_for(k, options.get(k)) for k in meas.kinds
-        }
+        self.models: dict[str, MeasurementModel] = {k: model_for(k, options.get(k))
+                                                     for k in kinds}
         self._set_rows(meas, *group_by_kind(meas, list(self.models)))
         g = self.grouped
         # Affine motion models: relative states by one matrix product (see _states_minus).

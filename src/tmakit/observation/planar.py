@@ -134,7 +134,7 @@ def _planar_kind(obs: Any, theta: Array, method: str) -> tuple[Any, Any, Array] 
     found = obs.planar_kind  # (the set's, made once)
     if found is None or theta.shape[-1] != found[0].p or not hasattr(found[1], method):
         return None
-    return found[0], found[1], np.asarray(theta, dtype=float)  # (of the motion's length)
+    return found[0], found[1], theta  # (float: its callers converted it; of the motion's length)
 
 
 def _jacobian_again(obs: Any, theta: Array, weights: Array | None) -> Array:

@@ -385,18 +385,18 @@ def assemble_result(obs: ObservationModel, noise: NoiseModel, theta: NDArray[np.
     motion = obs.motion
     n = len(obs.meas)
     names_nu = obs.nuisance_names
-    if not np.isfinite(theta).all() or not math.isfinite(cost):
+    if not (math.isfinite(cost) and all(map(math.isfinite, theta.tolist()))):
         return diverged_result(motion, names_nu, iterations, n - motion.n_params, method,
                                "the solve left the region where the model is defined "
                                "(non-finite predictions)", starts)
     n_info = motion.n_params + (0 if known else len(names_nu))
-    if information is not None and np.shape(information) == (n_info, n_info):
+    if information is not None and information.shape == (n_info, n_info):
         info = np.asarray(information, dtype=float)
     else:
         info, decomposition = _information(obs, noise, theta, nu, known, jacobian), None
     names = motion.param_names + (() if known else names_nu)
     values = theta if known else np.concatenate([theta, nu]) if len(nu) else theta.copy()
-    nu_values = dict(zip(names_nu, nu, strict=True))
+    nu_values = dict(zip(names_nu, nu, strict=True)) if names_nu else {}
     bound = bound_from_information(info, names, values, obs.meas, motion,
                                    KnownNuisance(nu_values) if known else None, nu_values,
                                    decomposition)

@@ -220,7 +220,7 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
             decomposition: Decomposition | None = None) -> Observability:
     """Find the rank, conditioning and named unobservable directions of an information (SI)."""
     size = info.shape[0]
-    unseen = _range_by_shape(meas, motion, np.asarray(theta, float), info, size)
+    unseen = _range_by_shape(meas, motion, theta, info, size)
     if decomposition is not None and unseen is None:
         evals, evecs, scale = decomposition
         norm = None  # made if needed (a rank deficiency to describe)
@@ -234,7 +234,7 @@ def analyse(info: NDArray[np.float64], names: tuple[str, ...], meas: Measurement
     top = max(high, _TINY)
     if low > RANK_TOL * top:  # full rank (eigenvalues ascending), said in floats
         return Observability(size, size, top / low, np.zeros((size, 0)),
-                             np.ones(size, dtype=bool), (evals, evecs, scale))
+                             np.array([True] * size), (evals, evecs, scale))
     null = evals <= RANK_TOL * top
     rank = int(size - null.sum())
     positive = evals[~null]
@@ -260,8 +260,10 @@ def _range_by_shape(meas: MeasurementSet, motion: MotionModel, theta: NDArray[np
     """Give the range direction (normalised unit vector) only a manoeuvre model's shape sees."""
     # a stationary emitter (a moving sensor's bearings do give its range) or constant
     # velocity (the rank says whether range is seen): no manoeuvre to take it from
-    if (motion.velocity_fixed or len(meas.sensors) != 1 or not _angles_only(meas)
-            or not np.all(np.isfinite(theta))):
+    if motion.velocity_fixed or len(meas.sensors) != 1 or not _angles_only(meas):
+        return None
+    theta = np.asarray(theta, float)
+    if not np.all(np.isfinite(theta)):
         return None
     sensor = meas.sensors[0]
     if not one_leg(meas.sensor_state[meas.sensor_mask(sensor)]):
