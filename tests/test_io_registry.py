@@ -99,3 +99,16 @@ def test_write_table_round_trips_and_names_what_it_writes(tmp_path, suffix):
         write_table(path, frame)
     with pytest.raises(ValueError, match=r"a track is written as \.csv or \.parquet, not \.txt"):
         write_table(tmp_path / "t.txt", frame, what="a track")
+
+
+def test_an_option_of_another_format_is_refused_naming_it_and_the_format_s_own(tmp_path):
+    rep = os.path.join(os.path.dirname(__file__), "data", "debrief", "multistatics",
+                       "Vessel_with_Sensor_Offset_first_8_min.rep")
+    with pytest.raises(TypeError, match=r"Debrief replay files take no option mapping, "
+                                        r"measurements \(they take ownship, contact, "
+                                        r"bearing_sigma_deg"):
+        read_measurements(rep, mapping="nothing.toml", measurements="x.csv")
+    with pytest.raises(TypeError, match=r"GPX files take no option contact \(they take "
+                                        r"measurements, mapping, dim\)"):
+        (tmp_path / "track.gpx").write_text("<gpx></gpx>")
+        read_measurements(tmp_path / "track.gpx", contact="TA")

@@ -515,7 +515,7 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
                 range_sigma: float | None = None,
                 frequency_sigma: float | None = None, dim: int | None = None,
                 ranges: str | None = None, kinds: Collection[str] | None = None,
-                window: Sequence[str | None] | None = None, **_: object) -> MeasurementSet:
+                window: Sequence[str | None] | None = None) -> MeasurementSet:
     """Read Debrief replay files (REP or DSF) as a measurement set (mapping: module text)."""
     paths, where = _paths(path)
     if ranges not in (None, *_RANGES_CHOICES):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import os
 from collections.abc import Collection, Mapping, Sequence
 from pathlib import Path
@@ -11,7 +12,7 @@ from ..data import MeasurementSet
 from . import csv_file, debrief, parquet_file, wide_log  # noqa: F401  (register formats)
 from .checker import COLUMN_ORDER, COLUMN_PURPOSE, FORMAT_LINE, PARQUET_METADATA_PREFIX
 from .errors import MAX_LISTED_PROBLEMS, MeasurementFileError, refuse_unreadable
-from .formats import find_format, registered_formats, suffix_text
+from .formats import Format, find_format, registered_formats, suffix_text
 
 __all__ = [
     "COLUMN_ORDER",
@@ -117,7 +118,23 @@ def _read_one(path: Path, origin: tuple[float, float, float] | None, format: str
         raise FileNotFoundError(f"{path}: no such file")
     refuse_unreadable(path, binary=fmt.name == "parquet" or path.suffix.lower() in (
         ".parquet", ".pq"))  # a FIFO, a device, NUL bytes in a text format: at once
+    _refuse_foreign_options(fmt, options)
     return fmt.read(path, origin=origin, **options)
+
+
+def _refuse_foreign_options(fmt: Format, options: dict[str, object]) -> None:
+    """Refuse options the format's reader does not take, naming them and the ones it does."""
+    assert fmt.read is not None
+    params = inspect.signature(fmt.read).parameters
+    if any(p.kind is p.VAR_KEYWORD for p in params.values()):
+        return  # the reader names what it refuses itself
+    taken = [n for n, p in params.items() if p.kind is p.KEYWORD_ONLY and n != "origin"]
+    foreign = sorted(set(options) - set(taken))
+    if foreign:
+        shown = {"bearing_sigma": "bearing_sigma_deg"}
+        raise TypeError(
+            f"{fmt.label} files take no option {', '.join(shown.get(n, n) for n in foreign)} "
+            f"(they take {', '.join(shown.get(n, n) for n in taken) or 'none'})")
 
 
 def _read_several(paths: list[Path], origin: tuple[float, float, float] | None,
@@ -135,6 +152,7 @@ def _read_several(paths: list[Path], origin: tuple[float, float, float] | None,
     for p in paths:
         if not p.exists():
             raise FileNotFoundError(f"{p}: no such file")
+    _refuse_foreign_options(fmt, options)
     return fmt.read(paths, origin=origin, **options)
 
 

@@ -272,8 +272,8 @@ def _gap_warning(track: Fixes, tf: NDArray[np.float64], t: NDArray[np.float64], 
 
 
 def read_wide_log(path: str | os.PathLike[str], *, mapping: Any = None,
-                  origin: Any = None, dim: int | None = None, track: str | None = None,
-                  **_: object) -> MeasurementSet:
+                  origin: Any = None, dim: int | None = None,
+                  track: str | None = None) -> MeasurementSet:
     """Read a wide CSV/Parquet log through a column mapping (see the module text)."""
     from .log_mapping import LogMapping, MappingError, load_mapping
 
@@ -416,14 +416,14 @@ def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArra
 
 
 def read_track_log(path: str | os.PathLike[str], *, measurements: Any = None,
-                   mapping: Any = None, **options: Any) -> MeasurementSet:
+                   mapping: Any = None, origin: Any = None,
+                   dim: int | None = None) -> MeasurementSet:
     """Read a GPX or NMEA own track joined by time to a wide measurement log."""
     if measurements is None:
         raise MeasurementFileError(path, [
             "an own track gives the sensor's positions only: give the measurement log too "
             "(tma import gpx|nmea TRACK LOG --mapping MAP.toml; measurements= in Python)"])
-    options.pop("track", None)
-    return read_wide_log(measurements, mapping=mapping, track=str(path), **options)
+    return read_wide_log(measurements, mapping=mapping, origin=origin, dim=dim, track=str(path))
 
 
 def _ns(stamp: dt.datetime) -> int:
