@@ -112,3 +112,17 @@ def test_an_option_of_another_format_is_refused_naming_it_and_the_format_s_own(t
                                         r"measurements, mapping, dim\)"):
         (tmp_path / "track.gpx").write_text("<gpx></gpx>")
         read_measurements(tmp_path / "track.gpx", contact="TA")
+
+
+def test_tma_refuses_an_option_of_another_format_naming_the_flag_and_the_file():
+    from typer.testing import CliRunner
+
+    from tmakit.cli import app
+
+    rep = os.path.join(os.path.dirname(__file__), "data", "debrief", "multistatics",
+                       "Vessel_with_Sensor_Offset_first_8_min.rep")
+    out = CliRunner().invoke(app, ["estimate", rep, "--mapping", "x.toml"])
+    assert out.exit_code == 2
+    assert "--mapping applies to other formats, not to Debrief replay files" in out.output
+    assert "Vessel_with_Sensor_Offset_first_8_min.rep" in out.output
+    assert "internal error" not in out.output

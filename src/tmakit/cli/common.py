@@ -308,7 +308,11 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
     raises :class:`FaultInWrittenLines`.
     """
     from ..io.errors import reader_notes
-    from ..io.measurement_files import MeasurementFileError, read_measurements
+    from ..io.measurement_files import (
+        ForeignOptionError,
+        MeasurementFileError,
+        read_measurements,
+    )
 
     paths = [path] if isinstance(path, Path) else list(path)
     for p in paths:
@@ -325,6 +329,10 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
         meas = read_measurements(paths[0] if len(paths) == 1 else paths, origin=origin, **options)
     except OSError as e:
         raise fail(f"{e.filename or paths[0]}: cannot be read ({e.strerror or e})") from None
+    except ForeignOptionError as e:
+        flags = [f"--{n.removesuffix('_deg').replace('_', '-')}" for n in e.foreign]
+        raise fail(f"{', '.join(flags)} {'apply' if len(flags) > 1 else 'applies'} to other "
+                   f"formats, not to {e.label} files ({paths[0]})") from None
     except (MeasurementFileError, ValueError) as e:
         from ..io.checker import ORIGIN_HINT
 

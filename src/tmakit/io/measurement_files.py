@@ -122,6 +122,15 @@ def _read_one(path: Path, origin: tuple[float, float, float] | None, format: str
     return fmt.read(path, origin=origin, **options)
 
 
+class ForeignOptionError(TypeError):
+    """Options given to a format's reader that it does not take (``foreign``; it takes ``taken``)."""
+
+    def __init__(self, label: str, foreign: list[str], taken: list[str]) -> None:
+        self.label, self.foreign, self.taken = label, foreign, taken
+        super().__init__(f"{label} files take no option {', '.join(foreign)} "
+                         f"(they take {', '.join(taken) or 'none'})")
+
+
 def _refuse_foreign_options(fmt: Format, options: dict[str, object]) -> None:
     """Refuse options the format's reader does not take, naming them and the ones it does."""
     assert fmt.read is not None
@@ -132,9 +141,8 @@ def _refuse_foreign_options(fmt: Format, options: dict[str, object]) -> None:
     foreign = sorted(set(options) - set(taken))
     if foreign:
         shown = {"bearing_sigma": "bearing_sigma_deg"}
-        raise TypeError(
-            f"{fmt.label} files take no option {', '.join(shown.get(n, n) for n in foreign)} "
-            f"(they take {', '.join(shown.get(n, n) for n in taken) or 'none'})")
+        raise ForeignOptionError(fmt.label, [shown.get(n, n) for n in foreign],
+                                 [shown.get(n, n) for n in taken])
 
 
 def _read_several(paths: list[Path], origin: tuple[float, float, float] | None,
