@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from functools import lru_cache
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,10 +20,10 @@ from .core.units import REACH_M, SPEED_OF_LIGHT, TIME_LIMIT_S
 from .measurements import KINDS
 
 __all__ = ["FINITE", "GEO_RANGES", "LATITUDE", "LONGITUDE", "OUTLIER_SPANS", "POSITION",
-           "SIGMA_FLOOR", "SIGMA_POSITIVE", "SIGMA_RESOLVED", "TIME", "VELOCITY", "check_set",
-           "column_problems", "duplicate_rows", "far_times", "geo_within", "metadata_problems",
-           "raise_problems", "sigma_resolved", "state_within_reach", "time_problem",
-           "time_within_limit"]
+           "SIGMA_FLOOR", "SIGMA_POSITIVE", "SIGMA_RESOLVED", "TIME", "VELOCITY", "CellRule",
+           "broken_rows", "cell_rules", "check_set", "column_problems", "duplicate_rows",
+           "far_times", "geo_within", "metadata_problems", "raise_problems", "sigma_resolved",
+           "state_within_reach", "time_problem"]
 
 #: What a time must be (s).
 TIME = (f"a time within [-{TIME_LIMIT_S:g}, {TIME_LIMIT_S:g}] s of the time origin (317 years; "
@@ -32,11 +32,6 @@ TIME = (f"a time within [-{TIME_LIMIT_S:g}, {TIME_LIMIT_S:g}] s of the time orig
 #: from them is refused (:func:`far_times`): a typo, another unit or another clock.
 OUTLIER_SPANS = 100.0
 _MIN_SPAN_S = 100.0
-
-
-def time_within_limit(time: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """Tell where times (s) lie within :data:`tmakit.core.units.TIME_LIMIT_S` of the origin."""
-    return np.abs(time) <= TIME_LIMIT_S
 
 
 def far_times(time: NDArray[np.float64]) -> tuple[NDArray[np.bool_], str]:
@@ -111,46 +106,133 @@ def _where(rows: NDArray[np.intp], column: str, expected: str,
             for k, r in enumerate(rows[:_SHOWN])]
 
 
+class CellRule(NamedTuple):
+    """A rule of one cell: where it is reported, what a cell must be, and the test of it."""
+
+    column: str | None  # the column reported (None: the row as a whole)
+    expected: str
+    reads: tuple[str, ...]  # the columns ``broken`` takes, in order
+    broken: Callable[..., NDArray[np.bool_]]  # the rows that break the rule, of a block
+
+
+def _non_finite(v: NDArray[np.float64]) -> NDArray[np.bool_]:
+    return ~np.isfinite(v)
+
+
+def _finite_beyond(limit: float) -> Callable[[NDArray[np.float64]], NDArray[np.bool_]]:
+    """Make the test of a finite cell beyond ``±limit`` (a non-finite one breaks FINITE)."""
+    def test(v: NDArray[np.float64]) -> NDArray[np.bool_]:
+        size = np.abs(v)
+        return (size > limit) & (size != np.inf)
+    return test
+
+
+def _of_kind(code: int, broken: Callable[..., NDArray[np.bool_]]
+             ) -> Callable[..., NDArray[np.bool_]]:
+    """Make a test that rows of kind ``code`` only can break (quick where there are none)."""
+    def test(kind: NDArray[np.integer], *columns: NDArray[Any]) -> NDArray[np.bool_]:
+        mine = kind == code
+        if mine.any():
+            mine[mine] = broken(*(c[mine] for c in columns))
+        return mine
+    return test
+
+
+def _value_out_of_range(cls: Any) -> Callable[[NDArray[np.float64]], NDArray[np.bool_]]:
+    return lambda value: np.isfinite(value) & ~cls.check_values(value)
+
+
+def _away_from_origin(x: NDArray[np.float64], y: NDArray[np.float64],
+                      z: NDArray[np.float64]) -> NDArray[np.bool_]:
+    return (np.abs(x) > 1e-3) | (np.abs(y) > 1e-3) | (np.abs(z) > 1e-3)
+
+
+@lru_cache(maxsize=1)
+def _value_rules() -> tuple[tuple[str, Callable[..., NDArray[np.bool_]]], ...]:
+    """Each kind's value range: what a value must be, and the test ``(kind, value)``."""
+    return tuple((str(cls.describe_values()), _of_kind(code, _value_out_of_range(cls)))
+                 for code, cls in enumerate(KINDS.values()) if cls.value_range is not None)
+
+
+def _sigma_unresolved(kind: NDArray[np.integer], value: NDArray[np.float64],
+                      sigma: NDArray[np.float64]) -> NDArray[np.bool_]:
+    moot = ~np.isfinite(value)  # no value, or one out of its range: its sigma is moot
+    for _, out_of_range in _value_rules():
+        moot |= out_of_range(kind, value)
+    with np.errstate(invalid="ignore"):
+        return (sigma > 0) & ~moot & ~sigma_resolved(value, sigma)
+
+
+@lru_cache(maxsize=1)
+def cell_rules() -> tuple[CellRule, ...]:
+    """Give the rules of each cell of a measurement set or file, in the order they are told.
+
+    The file checker (``tmakit.io.checker``, with a row's line and the cell as written) and
+    :func:`column_problems` (a set's rows) report the same rules in the same words; a cell
+    is reported by the first rule it breaks.  Columns: ``time``, ``value``, ``sigma``,
+    ``kind_code`` (-1 for no kind), the sensor state's, ``sensor_lat``, ``sensor_lon``,
+    ``sensor_alt``; a rule applies where the columns it reads are given.
+    """
+    rules = [CellRule(c, FINITE, (c,), _non_finite) for c in ("time", "value", "sigma")]
+    rules.append(CellRule("time", TIME, ("time",), _finite_beyond(TIME_LIMIT_S)))
+    for j, name in [*enumerate(STATE_COLUMNS), (2, "sensor_alt")]:
+        rules += [CellRule(name, FINITE, (name,), _non_finite),
+                  CellRule(name, POSITION if j < 3 else VELOCITY, (name,),
+                           _finite_beyond(REACH_M if j < 3 else SPEED_OF_LIGHT))]
+    rules.append(CellRule("sigma", SIGMA_POSITIVE, ("sigma",),
+                          lambda s: np.isfinite(s) & ~(s > 0)))
+    values = iter(_value_rules())
+    for code, cls in enumerate(KINDS.values()):
+        if cls.sensor_at_origin:
+            rules.append(CellRule(None, f"the ENU origin (0, 0, 0) as the sensor position of an "
+                                  f"{cls.kind} row", ("kind_code", *STATE_COLUMNS[:3]),
+                                  _of_kind(code, _away_from_origin)))
+        if cls.value_range is not None:
+            expected, test = next(values)
+            rules.append(CellRule("value", expected, ("kind_code", "value"), test))
+    rules.append(CellRule("sigma", SIGMA_RESOLVED, ("kind_code", "value", "sigma"),
+                          _sigma_unresolved))
+    for name, expected in (("sensor_lat", LATITUDE), ("sensor_lon", LONGITUDE)):
+        rules.append(CellRule(name, expected, (name,),
+                              lambda v, name=name: np.isfinite(v) & ~geo_within(v, name)))
+    return tuple(rules)
+
+
+def broken_rows(columns: Mapping[str, NDArray[Any]], block: int = 1 << 15
+                ) -> list[tuple[CellRule, NDArray[np.intp]]]:
+    """Give each rule of :func:`cell_rules` that reads only ``columns`` and the rows breaking it.
+
+    Every rule is tested on one block of rows before the next block (the block stays in the
+    cache; no mask of every row is held).
+    """
+    applied = [r for r in cell_rules() if all(c in columns for c in r.reads)]
+    found: list[list[NDArray[np.intp]]] = [[] for _ in applied]
+    n = next(iter(columns.values())).shape[0]
+    for lo in range(0, n, block):
+        cells = {c: v[lo:lo + block] for c, v in columns.items()}
+        for rule, rows in zip(applied, found, strict=True):
+            with np.errstate(invalid="ignore"):
+                bad = np.flatnonzero(rule.broken(*(cells[c] for c in rule.reads)))
+            if bad.shape[0]:
+                rows.append(bad + lo)
+    return [(rule, np.concatenate(rows) if rows else np.zeros(0, dtype=np.intp))
+            for rule, rows in zip(applied, found, strict=True)]
+
+
 def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
                     kind: NDArray[np.integer], value: NDArray[np.float64],
                     sigma: NDArray[np.float64], sensor_state: NDArray[np.float64],
-                    time_ref: NDArray[np.float64], order: bool = True, ranges: bool = True,
+                    time_ref: NDArray[np.float64], order: bool = True,
                     stream_code: NDArray[np.integer] | None = None) -> list[str]:
     """Check the columns of a measurement set against the rules of the file format."""
+    columns = {"time": time, "value": value, "sigma": sigma, "kind_code": kind,
+               **{name: sensor_state[:, j] for j, name in enumerate(STATE_COLUMNS)}}
     found: list[str] = []
-    cols = {"time": time, "value": value, "sigma": sigma}
-    for name, col in cols.items():
-        bad = np.flatnonzero(~np.isfinite(col))
-        found += _where(bad, name, FINITE, col[bad])
-    bad = np.flatnonzero(np.isfinite(time) & ~_by_blocks(time_within_limit, time))
-    found += _where(bad, "time", TIME, time[bad])
-    for j, name in enumerate(STATE_COLUMNS):
-        col = sensor_state[:, j]
-        # one pass: a cell out of reach is non-finite or too large, told apart on those rows
-        bad = np.flatnonzero(~_by_blocks(lambda c, j=j: state_within_reach(c, j), col))
-        finite = np.isfinite(col[bad])
-        found += _where(bad[~finite], name, FINITE, col[bad[~finite]])
-        found += _where(bad[finite], name, POSITION if j < 3 else VELOCITY, col[bad[finite]])
-    bad = np.flatnonzero(np.isfinite(sigma) & ~(sigma > 0))
-    found += _where(bad, "sigma", SIGMA_POSITIVE, sigma[bad])
-    out_of_range = np.zeros(value.shape, dtype=bool)
-    for code, cls in enumerate(KINDS.values()):
-        if cls.sensor_at_origin and np.any(mine := kind == code):
-            rows = np.flatnonzero(mine)
-            bad = rows[np.any(np.abs(sensor_state[rows, :3]) > 1e-3, axis=1)]
-            found += [f"row {int(r) + 1}: expected the ENU origin (0, 0, 0) as the sensor "
-                      f"position of an {cls.kind} row" for r in bad[:_SHOWN]]
-        if cls.value_range is None or not ranges:
-            continue
-        # masks only (1 byte per row), no index or value copies of the kind's rows
-        wrong = (kind == code) & np.isfinite(value) & ~cls.check_values(value)
-        bad = np.flatnonzero(wrong)
-        found += _where(bad, "value", str(cls.describe_values()), value[bad])
-        out_of_range |= wrong
-    with np.errstate(invalid="ignore"):  # a sigma beside a value out of its range: moot
-        bad = np.flatnonzero((sigma > 0) & np.isfinite(value) & ~out_of_range
-                             & ~_by_blocks(sigma_resolved, value, sigma))
-    found += _where(bad, "sigma", SIGMA_RESOLVED, sigma[bad])
+    for rule, bad in broken_rows(columns):
+        if rule.column is None:
+            found += [f"row {int(r) + 1}: expected {rule.expected}" for r in bad[:_SHOWN]]
+        else:
+            found += _where(bad, rule.column, rule.expected, columns[rule.column][bad])
     bad = np.flatnonzero(np.isinf(time_ref))
     found += _where(bad, "time_ref", FINITE, time_ref[bad])
     if order:
@@ -163,14 +245,6 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
                   f"time_ref), found {float(time[row])!r}, a duplicate of row {first + 1}"
                   for row, first in pairs[:_SHOWN]]
     return found
-
-
-def _by_blocks(test: Any, *columns: NDArray[Any], block: int = 1 << 16) -> NDArray[np.bool_]:
-    """Apply an elementwise test a block of rows at a time: 1 byte per row, not 8 or 16."""
-    out = np.empty(columns[0].shape[0], dtype=bool)
-    for a in range(0, out.shape[0], block):
-        out[a:a + block] = test(*(c[a:a + block] for c in columns))
-    return out
 
 
 #: The sensor state's columns, in order.
@@ -315,10 +389,10 @@ def raise_problems(found: list[str], what: str = "measurement set") -> None:
         raise ValueError(f"invalid {what}: " + "\n  ".join(found[:3 * _SHOWN]) + more)
 
 
-def check_set(meas: Any, order: bool = True, ranges: bool = True) -> None:
+def check_set(meas: Any, order: bool = True) -> None:
     """Refuse a measurement set that breaks a rule (columns and metadata)."""
     # the rules on the file-unit cells, whose values the messages quote
     found = column_problems(meas.time, meas.sensor_code, meas.kind_code, meas.value,
-                            meas.sigma, meas.sensor_state, meas.time_ref, order, ranges,
+                            meas.sigma, meas.sensor_state, meas.time_ref, order,
                             getattr(meas, "stream_code", lambda: None)())
     raise_problems(found + metadata_problems(meas.metadata))
