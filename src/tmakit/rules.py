@@ -21,9 +21,9 @@ from .measurements import KINDS
 
 __all__ = ["FINITE", "GEO_RANGES", "LATITUDE", "LONGITUDE", "OUTLIER_SPANS", "POSITION",
            "SIGMA_FLOOR", "SIGMA_POSITIVE", "SIGMA_RESOLVED", "TIME", "VELOCITY", "CellRule",
-           "broken_rows", "cell_rules", "check_set", "column_problems", "duplicate_rows",
-           "far_times", "geo_within", "metadata_problems", "raise_problems", "sigma_resolved",
-           "state_within_reach", "time_problem"]
+           "broken_rows", "cell_rules", "check_set", "column_problems", "decreasing_times",
+           "duplicate_rows", "far_times", "geo_within", "metadata_problems", "raise_problems",
+           "sigma_resolved", "state_within_reach", "time_problem"]
 
 #: What a time must be (s).
 TIME = (f"a time within [-{TIME_LIMIT_S:g}, {TIME_LIMIT_S:g}] s of the time origin (317 years; "
@@ -107,29 +107,26 @@ def _where(rows: NDArray[np.intp], column: str, expected: str,
 
 
 class CellRule(NamedTuple):
-    """A rule of one cell: where it is reported, what a cell must be, and the test of it."""
+    """A cell's rule: column (None: the row), what it must be, the test and what it reads."""
 
-    column: str | None  # the column reported (None: the row as a whole)
+    column: str | None
     expected: str
-    reads: tuple[str, ...]  # the columns ``broken`` takes, in order
-    broken: Callable[..., NDArray[np.bool_]]  # the rows that break the rule, of a block
+    reads: tuple[str, ...]
+    broken: Callable[..., NDArray[np.bool_]]
 
 
 def _non_finite(v: NDArray[np.float64]) -> NDArray[np.bool_]:
     return ~np.isfinite(v)
 
 
-def _finite_beyond(limit: float) -> Callable[[NDArray[np.float64]], NDArray[np.bool_]]:
-    """Make the test of a finite cell beyond ``±limit`` (a non-finite one breaks FINITE)."""
-    def test(v: NDArray[np.float64]) -> NDArray[np.bool_]:
-        size = np.abs(v)
-        return (size > limit) & (size != np.inf)
-    return test
+def _beyond(limit: float) -> Callable[[NDArray[np.float64]], NDArray[np.bool_]]:
+    """Test a finite cell beyond ``±limit`` (a non-finite one breaks FINITE)."""
+    return lambda v: (np.abs(v) > limit) & (np.abs(v) != np.inf)
 
 
 def _of_kind(code: int, broken: Callable[..., NDArray[np.bool_]]
              ) -> Callable[..., NDArray[np.bool_]]:
-    """Make a test that rows of kind ``code`` only can break (quick where there are none)."""
+    """Make a test that only rows of kind ``code`` can break (quick where there are none)."""
     def test(kind: NDArray[np.integer], *columns: NDArray[Any]) -> NDArray[np.bool_]:
         mine = kind == code
         if mine.any():
@@ -138,64 +135,50 @@ def _of_kind(code: int, broken: Callable[..., NDArray[np.bool_]]
     return test
 
 
-def _value_out_of_range(cls: Any) -> Callable[[NDArray[np.float64]], NDArray[np.bool_]]:
-    return lambda value: np.isfinite(value) & ~cls.check_values(value)
-
-
-def _away_from_origin(x: NDArray[np.float64], y: NDArray[np.float64],
-                      z: NDArray[np.float64]) -> NDArray[np.bool_]:
-    return (np.abs(x) > 1e-3) | (np.abs(y) > 1e-3) | (np.abs(z) > 1e-3)
-
-
 @lru_cache(maxsize=1)
-def _value_rules() -> tuple[tuple[str, Callable[..., NDArray[np.bool_]]], ...]:
-    """Each kind's value range: what a value must be, and the test ``(kind, value)``."""
-    return tuple((str(cls.describe_values()), _of_kind(code, _value_out_of_range(cls)))
-                 for code, cls in enumerate(KINDS.values()) if cls.value_range is not None)
+def _value_rules() -> tuple[tuple[int, str, Callable[..., NDArray[np.bool_]]], ...]:
+    """Each kind's value range: its code, what a value must be, the test ``(kind, value)``."""
+    return tuple((code, str(cls.describe_values()), _of_kind(
+        code, lambda v, cls=cls: np.isfinite(v) & ~cls.check_values(v)))
+        for code, cls in enumerate(KINDS.values()) if cls.value_range is not None)
 
 
 def _sigma_unresolved(kind: NDArray[np.integer], value: NDArray[np.float64],
                       sigma: NDArray[np.float64]) -> NDArray[np.bool_]:
     moot = ~np.isfinite(value)  # no value, or one out of its range: its sigma is moot
-    for _, out_of_range in _value_rules():
+    for _, _, out_of_range in _value_rules():
         moot |= out_of_range(kind, value)
-    with np.errstate(invalid="ignore"):
-        return (sigma > 0) & ~moot & ~sigma_resolved(value, sigma)
+    return (sigma > 0) & ~moot & ~sigma_resolved(value, sigma)
 
 
 @lru_cache(maxsize=1)
 def cell_rules() -> tuple[CellRule, ...]:
-    """Give the rules of each cell of a measurement set or file, in the order they are told.
+    """Give the rules of a measurement set's or file's cells, in the order they are told.
 
-    The file checker (``tmakit.io.checker``, with a row's line and the cell as written) and
-    :func:`column_problems` (a set's rows) report the same rules in the same words; a cell
-    is reported by the first rule it breaks.  Columns: ``time``, ``value``, ``sigma``,
-    ``kind_code`` (-1 for no kind), the sensor state's, ``sensor_lat``, ``sensor_lon``,
-    ``sensor_alt``; a rule applies where the columns it reads are given.
+    The file checker (``tmakit.io.checker``: with the line, the cell as written) and
+    :func:`column_problems` (a set's rows) report them; a rule applies where the columns it
+    reads are given (``kind_code``: -1 for no kind), and a cell breaks one rule at most.
     """
+    ranged = [("time", TIME, _beyond(TIME_LIMIT_S))]
+    ranged += [(c, POSITION if j < 3 else VELOCITY, _beyond(REACH_M if j < 3 else SPEED_OF_LIGHT))
+               for j, c in [*enumerate(STATE_COLUMNS), (2, "sensor_alt")]]
+    ranged += [(c, what, lambda v, c=c: np.isfinite(v) & ~geo_within(v, c))
+               for c, what in (("sensor_lat", LATITUDE), ("sensor_lon", LONGITUDE))]
     rules = [CellRule(c, FINITE, (c,), _non_finite) for c in ("time", "value", "sigma")]
-    rules.append(CellRule("time", TIME, ("time",), _finite_beyond(TIME_LIMIT_S)))
-    for j, name in [*enumerate(STATE_COLUMNS), (2, "sensor_alt")]:
-        rules += [CellRule(name, FINITE, (name,), _non_finite),
-                  CellRule(name, POSITION if j < 3 else VELOCITY, (name,),
-                           _finite_beyond(REACH_M if j < 3 else SPEED_OF_LIGHT))]
-    rules.append(CellRule("sigma", SIGMA_POSITIVE, ("sigma",),
-                          lambda s: np.isfinite(s) & ~(s > 0)))
-    values = iter(_value_rules())
+    for c, what, test in ranged:
+        rules += [CellRule(c, FINITE, (c,), _non_finite)] * (c != "time")
+        rules.append(CellRule(c, what, (c,), test))
+    rules.append(CellRule("sigma", SIGMA_POSITIVE, ("sigma",), lambda s: np.isfinite(s) & ~(s > 0)))
     for code, cls in enumerate(KINDS.values()):
         if cls.sensor_at_origin:
-            rules.append(CellRule(None, f"the ENU origin (0, 0, 0) as the sensor position of an "
+            rules.append(CellRule(None, "the ENU origin (0, 0, 0) as the sensor position of an "
                                   f"{cls.kind} row", ("kind_code", *STATE_COLUMNS[:3]),
-                                  _of_kind(code, _away_from_origin)))
-        if cls.value_range is not None:
-            expected, test = next(values)
-            rules.append(CellRule("value", expected, ("kind_code", "value"), test))
-    rules.append(CellRule("sigma", SIGMA_RESOLVED, ("kind_code", "value", "sigma"),
-                          _sigma_unresolved))
-    for name, expected in (("sensor_lat", LATITUDE), ("sensor_lon", LONGITUDE)):
-        rules.append(CellRule(name, expected, (name,),
-                              lambda v, name=name: np.isfinite(v) & ~geo_within(v, name)))
-    return tuple(rules)
+                                  _of_kind(code, lambda x, y, z: (np.abs(x) > 1e-3)
+                                           | (np.abs(y) > 1e-3) | (np.abs(z) > 1e-3))))
+        rules += [CellRule("value", what, ("kind_code", "value"), test)
+                  for c, what, test in _value_rules() if c == code]
+    return (*rules, CellRule("sigma", SIGMA_RESOLVED, ("kind_code", "value", "sigma"),
+                             _sigma_unresolved))
 
 
 def broken_rows(columns: Mapping[str, NDArray[Any]], block: int = 1 << 15
@@ -236,7 +219,10 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
     bad = np.flatnonzero(np.isinf(time_ref))
     found += _where(bad, "time_ref", FINITE, time_ref[bad])
     if order:
-        found += _order_problems(time, sensor_code)
+        found += [f"row {row + 1}, column 'time': expected a time >= {float(time[prev])!r} s, "
+                  f"the time of the previous row of its sensor (row {prev + 1}), found "
+                  f"{float(time[row])!r}"
+                  for prev, row in decreasing_times(time, sensor_code)[:_SHOWN]]
         far, expected = far_times(time)
         found += _where(np.flatnonzero(far), "time", expected, time[far])
         pairs = duplicate_rows(time, sensor_code if stream_code is None else stream_code, kind,
@@ -302,23 +288,18 @@ def duplicate_rows(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
     return sorted(pairs)
 
 
-def _order_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer]
-                    ) -> list[str]:
-    """List the times that decrease within a sensor (file order kept)."""
-    n = time.shape[0]
-    if n < 2:
+def decreasing_times(time: NDArray[np.float64], sensor_code: NDArray[np.integer]
+                     ) -> list[tuple[int, int]]:
+    """Find the rows whose time is below the previous row's of their sensor: (previous, row)."""
+    if time.shape[0] < 2:
         return []
     if int(sensor_code.min()) == int(sensor_code.max()):  # one sensor: no sort, no copies
         back = np.flatnonzero(time[1:] < time[:-1])
-        pairs = [(int(i), int(i) + 1) for i in back[:_SHOWN]]
-    else:  # by sensor, file order within
-        order = np.argsort(sensor_code, kind="stable")
-        t, s = time[order], sensor_code[order]
-        back = np.flatnonzero((s[1:] == s[:-1]) & (t[1:] < t[:-1]))
-        pairs = [(int(order[i]), int(order[i + 1])) for i in back[:_SHOWN]]
-    return [f"row {row + 1}, column 'time': expected a time >= {float(time[prev])!r} s, the "
-            f"time of the previous row of its sensor (row {prev + 1}), found "
-            f"{float(time[row])!r}" for prev, row in pairs]
+        return [(int(i), int(i) + 1) for i in back]
+    order = np.argsort(sensor_code, kind="stable")  # by sensor, file order within
+    t, s = time[order], sensor_code[order]
+    back = np.flatnonzero((s[1:] == s[:-1]) & (t[1:] < t[:-1]))
+    return [(int(order[i]), int(order[i + 1])) for i in back]
 
 
 def _json_numbers(text: str, key: str) -> str | None:

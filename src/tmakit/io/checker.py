@@ -23,7 +23,15 @@ from numpy.typing import NDArray
 from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS, MeasurementSet
 from ..measurements import KINDS
 from ..measurements.codes import KIND_CODES
-from ..rules import FINITE, broken_rows, check_set, far_times, metadata_problems
+from ..rules import (
+    FINITE,
+    broken_rows,
+    check_set,
+    decreasing_times,
+    duplicate_rows,
+    far_times,
+    metadata_problems,
+)
 from .errors import MeasurementFileError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -618,9 +626,6 @@ def _check_velocity(has: Callable[[str], bool], kinds: list[str], problems: Prob
     return bool(has_vx and has_vy)
 
 
-RowCheck = Callable[[NDArray[Any], NDArray[np.intp]], NDArray[np.bool_]]
-
-
 def read_numbers(frame: pd.DataFrame, problems: Problems) -> Numbers:
     """Numeric columns as float64 (NaN for empty cells), via pandera's coercion."""
     import pandas as pd
@@ -660,49 +665,28 @@ def read_numbers(frame: pd.DataFrame, problems: Problems) -> Numbers:
     return {c: table[c].to_numpy(dtype=np.float64, copy=True) for c in present}
 
 
-class _Cells:
-    """A file's columns, each cell checked rule by rule (the first rule it breaks is recorded)."""
-
-    def __init__(self, values: dict[str, NDArray[Any]], problems: Problems) -> None:
-        self.values, self.problems = values, problems
-        self.rows = np.arange(len(problems.raw.frame))
-
-    def check(self, column: str, ok: RowCheck, what: str | Callable[[int], str],
-              ignore_na: bool = True) -> None:
-        """Record ``what`` was expected at each cell of ``column`` where ``ok`` fails."""
-        v = self.values[column]
-        with np.errstate(invalid="ignore"):
-            bad = ~np.asarray(ok(v, self.rows), dtype=bool)
-        if ignore_na and v.dtype == np.float64:  # empty cells pass
-            bad &= ~np.isnan(v)
-        self.record(column, np.flatnonzero(bad), what)
-
-    def record(self, column: str, rows: NDArray[np.intp], what: str | Callable[[int], str]
-               ) -> None:
-        """Record ``what`` was expected at the cells of ``column`` in ``rows``."""
-        for row in rows.tolist():
-            self.problems.cell(row, column, what(row) if callable(what) else what)
-
-
 def check_cells(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
                 is_rd: NDArray[np.bool_], problems: Problems,
                 ref_name: NDArray[np.object_] | None = None) -> NDArray[np.bool_]:
     """Check every cell against the per-cell rules; record one problem per failing cell."""
+    def record(column: str, bad: NDArray[Any], what: Expected) -> None:  # a mask, or rows
+        for row in (np.flatnonzero(bad) if bad.dtype == bool else bad).tolist():
+            problems.cell(row, column, what(row) if callable(what) else what)
+
     text = {c: text_column(frame[c]) for c in ("sensor", "kind", "ref_sensor")
             if c in frame.columns}
-    cells = _Cells({**num, **text}, problems)
     if "sensor" in text:
-        cells.check("sensor", lambda v, r: np.array([s.strip() != "" for s in v], dtype=bool),
-                    "a sensor id (text)")
+        record("sensor", np.array([s.strip() == "" for s in text["sensor"]], dtype=bool),
+               "a sensor id (text)")
     if "kind" in text:
-        cells.check("kind", lambda v, r: np.isin(v.astype(str), list(KINDS)),
-                    f"one of the kinds {', '.join(KINDS)}")
+        record("kind", ~np.isin(text["kind"].astype(str), list(KINDS)),
+               f"one of the kinds {', '.join(KINDS)}")
     for c in ("time", "value", "sigma", *SENSOR_STATE_COLUMNS, *GEO_COLUMNS):
         if c in num:
-            cells.check(c, lambda v, r: ~np.isnan(v), "a number", ignore_na=False)
+            record(c, np.isnan(num[c]), "a number")
     for rule, rows in broken_rows({**num, "kind_code": _kind_codes(kind)}):
         if rule.column is not None:  # (a row's own rule is the set's: MeasurementSet's)
-            cells.record(rule.column, rows, rule.expected)
+            record(rule.column, rows, rule.expected)
     ref = {c: num[c] for c in REF_STATE_COLUMNS if c in num}
     ref_given = np.zeros(len(frame), dtype=bool)
     for v in ref.values():
@@ -715,15 +699,24 @@ def check_cells(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
     for column, bad, what in reference_problems(
             num.get("time", np.full(len(frame), np.nan)), num.get("time_ref"), kind.__getitem__,
             is_rd, between, ref, named):
-        cells.record(column, np.flatnonzero(bad), what)
-    if ref_name is not None:
-        _ref_name_checks(cells, kind)
+        record(column, bad, what)
+    if "ref_sensor" in text:  # only on tdoa/fdoa rows, another sensor than the row's
+        name = text["ref_sensor"]
+        own = text.get("sensor", np.full(kind.shape[0], "", dtype=object))
+        record("ref_sensor", np.array([x.strip() != "" for x in name], dtype=bool) & ~between,
+               lambda row: "an empty cell: only tdoa and fdoa rows name a reference sensor "
+                           f"(this row is {kind[row] or 'of no kind'})")
+        record("ref_sensor", np.array([x.strip() == str(o).strip() for x, o in
+                                       zip(name, own, strict=True)], dtype=bool),
+               lambda row: f"another sensor than the row's own ({own[row]!r})")
     if "carrier" in num:
-        cells.check("carrier", lambda v, r: (v > 0) & np.isfinite(v),
-                    "a carrier frequency > 0 (Hz)")
-        cells.check("carrier", lambda v, r: np.isnan(v) | (kind[r] == "fdoa"),
-                    lambda row: "an empty cell: only fdoa rows have a carrier (this row is "
-                                f"{kind[row] or 'of no kind'})", ignore_na=False)
+        carrier = num["carrier"]
+        with np.errstate(invalid="ignore"):
+            record("carrier", ~np.isnan(carrier) & ~((carrier > 0) & np.isfinite(carrier)),
+                   "a carrier frequency > 0 (Hz)")
+        record("carrier", ~np.isnan(carrier) & (kind != "fdoa"),
+               lambda row: "an empty cell: only fdoa rows have a carrier (this row is "
+                           f"{kind[row] or 'of no kind'})")
     return ref_given
 
 
@@ -792,18 +785,6 @@ def reference_problems(time: NDArray[np.float64], time_ref: NDArray[np.float64] 
             yield c, np.isinf(v), FINITE
 
 
-def _ref_name_checks(cells: _Cells, kind: NDArray[np.object_]) -> None:
-    """Check a ref_sensor name: only on tdoa/fdoa rows, another sensor than the row's."""
-    between = np.isin(kind, between_sensor_kinds())
-    own = cells.values.get("sensor", np.full(kind.shape[0], "", dtype=object))
-    cells.check("ref_sensor", lambda v, r: np.array([x.strip() == "" for x in v]) | between[r],
-                lambda row: "an empty cell: only tdoa and fdoa rows name a reference sensor "
-                            f"(this row is {kind[row] or 'of no kind'})")
-    cells.check("ref_sensor", lambda v, r: np.array([x.strip() != str(o).strip()
-                                                     for x, o in zip(v, own[r], strict=True)]),
-                lambda row: f"another sensor than the row's own ({own[row]!r})")
-
-
 def check_order(num: dict[str, NDArray[np.float64]], sensor: NDArray[np.object_],
                 kind: NDArray[np.object_], problems: Problems,
                 tonal: NDArray[np.str_] | None = None) -> None:
@@ -818,28 +799,19 @@ def check_order(num: dict[str, NDArray[np.float64]], sensor: NDArray[np.object_]
     far, expected = far_times(np.where(problems.bad_rows("time"), np.nan, t))
     for far_row in np.flatnonzero(far).tolist():
         problems.cell(far_row, "time", expected)
-    # codes, not text: equal ids give equal codes, and groupby on integers is light
-    table = pd.DataFrame({"sensor": pd.factorize(sensor[rows])[0],
-                          "kind": pd.factorize(kind[rows])[0],
-                          "time": t[rows], "time_ref": tr[rows], "row": rows,
-                          "tonal": 0 if tonal is None else pd.factorize(tonal[rows])[0]})
-    by_sensor = table.groupby("sensor", sort=False)
-    prev_row = by_sensor["row"].shift().to_numpy()
-    prev_time = by_sensor["time"].shift().to_numpy()
-    for i in np.flatnonzero(prev_time > table["time"].to_numpy()).tolist():
-        row, prev, s = int(rows[i]), int(prev_row[i]), sensor[rows[i]]
+    code = pd.factorize(sensor[rows])[0]  # codes, not text: equal ids give equal codes
+    for prev, row in ((int(rows[p]), int(rows[r])) for p, r in decreasing_times(t[rows], code)):
         problems.cell(row, "time",
                       f"a time >= {number_text(t[prev])} s, the time of the previous row of "
-                      f"sensor '{s}' ({problems.where(prev)})",
-                      f"{number_text(t[row])} (time decreases for sensor '{s}')")
-
-    table = table[~problems.bad_rows("kind", "time_ref")[rows]]
-    key = ["sensor", "kind", "time", "time_ref", "tonal"]
-    first = table.groupby(key, sort=False, dropna=False)["row"].transform("first")
-    for row, prev in zip(table["row"].to_numpy(), first.to_numpy(), strict=True):
-        if row == prev:
-            continue
+                      f"sensor '{sensor[row]}' ({problems.where(prev)})",
+                      f"{number_text(t[row])} (time decreases for sensor '{sensor[row]}')")
+    keep = ~problems.bad_rows("kind", "time_ref")[rows]
+    rows, code = rows[keep], code[keep]
+    if tonal is not None and rows.shape[0]:  # one value per time and tonal
+        code = code + pd.factorize(tonal[rows])[0] * (int(code.max()) + 1)
+    for row, first in ((int(rows[r]), int(rows[f])) for r, f in
+                       duplicate_rows(t[rows], code, pd.factorize(kind[rows])[0], tr[rows])):
         ref = "" if math.isnan(tr[row]) else f", time_ref {number_text(tr[row])}"
-        problems.cell(int(row), "time", "one row per (sensor, kind, time, time_ref)",
-                      f"a duplicate of {problems.where(int(prev))} (sensor '{sensor[row]}', "
+        problems.cell(row, "time", "one row per (sensor, kind, time, time_ref)",
+                      f"a duplicate of {problems.where(first)} (sensor '{sensor[row]}', "
                       f"kind '{kind[row]}', time {number_text(t[row])}{ref})")

@@ -21,8 +21,7 @@ from numpy.typing import NDArray
 
 from .. import rules
 from ..data import REF_STATE_COLUMNS, MeasurementSet
-from ..measurements import KINDS
-from ..measurements.codes import KIND_NAMES
+from ..measurements.codes import KIND_NAMES, kind_flags
 from ..rules import broken_rows
 from .checker import (
     COLUMN_ORDER,
@@ -69,10 +68,7 @@ _STATE_COLUMN = {"sensor_x": 0, "sensor_y": 1, "sensor_z": 2, "sensor_vx": 3, "s
                  "sensor_vz": 5, "sensor_lat": 0, "sensor_lon": 1, "sensor_alt": 2}
 #: Columns of range differences (empty on other rows).
 _REFERENCE = ("time_ref", *REF_STATE_COLUMNS)
-#: Whether each kind code uses a reference sample (range differences).
-_USES_REFERENCE = np.array([KINDS[k].uses_reference for k in KIND_NAMES], dtype=bool)
-#: Whether each kind code is a difference between sensors at one time (tdoa, fdoa).
-_BETWEEN_SENSORS = np.array([KINDS[k].between_sensors for k in KIND_NAMES], dtype=bool)
+_USES_REFERENCE, _BETWEEN_SENSORS = kind_flags("uses_reference"), kind_flags("between_sensors")
 
 
 def split_metadata(text: str) -> tuple[dict[str, str], int, int]:
@@ -206,11 +202,13 @@ def _stream_header(path: Path, start: int) -> list[str] | None:
             return None
     if not names or any("\n" in n or "\r" in n for n in names):
         return None
-    stripped = [n.strip() for n in names]
+    try:
+        stripped = _checked_header(path, names, 0, [])  # no column twice, none unnamed
+    except MeasurementFileError:
+        return None
     problems = Problems(RawTable(None, {}, None))
     check_columns(stripped, [], problems)  # (the kinds' own needs are checked once read)
-    if (problems.file or "" in stripped or len(set(stripped)) != len(stripped)
-            or "ref_sensor" in stripped or "carrier" in stripped  # named, scaled: the checker
+    if (problems.file or "ref_sensor" in stripped or "carrier" in stripped  # the checker's
             or (any(c in stripped for c in REF_STATE_COLUMNS) and "time_ref" not in stripped)):
         return None
     return names
