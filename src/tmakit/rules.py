@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Callable, Mapping
-from functools import lru_cache
+from functools import lru_cache, partial
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -100,8 +100,7 @@ GEO_RANGES = {"sensor_lat": (-90.0, 90.0), "sensor_lon": (-180.0, 360.0)}
 _SHOWN = 10  # problems listed in a constructor's message
 
 
-def _where(rows: NDArray[np.intp], column: str, expected: str,
-           found: NDArray[np.float64]) -> list[str]:
+def _where(rows: NDArray[np.intp], column: str, expected: str, found: NDArray[Any]) -> list[str]:
     return [f"row {int(r) + 1}, column '{column}': expected {expected}, found {float(found[k])!r}"
             for k, r in enumerate(rows[:_SHOWN])]
 
@@ -122,6 +121,10 @@ def _non_finite(v: NDArray[np.float64]) -> NDArray[np.bool_]:
 def _beyond(limit: float) -> Callable[[NDArray[np.float64]], NDArray[np.bool_]]:
     """Test a finite cell beyond ``±limit`` (a non-finite one breaks FINITE)."""
     return lambda v: (np.abs(v) > limit) & (np.abs(v) != np.inf)
+
+
+def _off_the_earth(v: NDArray[np.float64], column: str) -> NDArray[np.bool_]:
+    return np.isfinite(v) & ~geo_within(v, column)
 
 
 def _of_kind(code: int, broken: Callable[..., NDArray[np.bool_]]
@@ -162,7 +165,7 @@ def cell_rules() -> tuple[CellRule, ...]:
     ranged = [("time", TIME, _beyond(TIME_LIMIT_S))]
     ranged += [(c, POSITION if j < 3 else VELOCITY, _beyond(REACH_M if j < 3 else SPEED_OF_LIGHT))
                for j, c in [*enumerate(STATE_COLUMNS), (2, "sensor_alt")]]
-    ranged += [(c, what, lambda v, c=c: np.isfinite(v) & ~geo_within(v, c))
+    ranged += [(c, what, partial(_off_the_earth, column=c))
                for c, what in (("sensor_lat", LATITUDE), ("sensor_lon", LONGITUDE))]
     rules = [CellRule(c, FINITE, (c,), _non_finite) for c in ("time", "value", "sigma")]
     for c, what, test in ranged:
