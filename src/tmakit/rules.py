@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
-from functools import lru_cache
-from typing import Any
+from collections.abc import Callable, Mapping
+from functools import lru_cache, partial
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,10 +20,10 @@ from .core.units import REACH_M, SPEED_OF_LIGHT, TIME_LIMIT_S
 from .measurements import KINDS
 
 __all__ = ["FINITE", "GEO_RANGES", "LATITUDE", "LONGITUDE", "OUTLIER_SPANS", "POSITION",
-           "SIGMA_FLOOR", "SIGMA_POSITIVE", "SIGMA_RESOLVED", "TIME", "VELOCITY", "check_set",
-           "column_problems", "duplicate_rows", "far_times", "geo_within", "metadata_problems",
-           "raise_problems", "sigma_resolved", "state_within_reach", "time_problem",
-           "time_within_limit"]
+           "SIGMA_FLOOR", "SIGMA_POSITIVE", "SIGMA_RESOLVED", "TIME", "VELOCITY", "CellRule",
+           "broken_rows", "cell_rules", "check_set", "column_problems", "decreasing_times",
+           "duplicate_rows", "far_times", "geo_within", "metadata_problems", "raise_problems",
+           "sigma_resolved", "state_within_reach", "time_problem"]
 
 #: What a time must be (s).
 TIME = (f"a time within [-{TIME_LIMIT_S:g}, {TIME_LIMIT_S:g}] s of the time origin (317 years; "
@@ -32,11 +32,6 @@ TIME = (f"a time within [-{TIME_LIMIT_S:g}, {TIME_LIMIT_S:g}] s of the time orig
 #: from them is refused (:func:`far_times`): a typo, another unit or another clock.
 OUTLIER_SPANS = 100.0
 _MIN_SPAN_S = 100.0
-
-
-def time_within_limit(time: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """Tell where times (s) lie within :data:`tmakit.core.units.TIME_LIMIT_S` of the origin."""
-    return np.abs(time) <= TIME_LIMIT_S
 
 
 def far_times(time: NDArray[np.float64]) -> tuple[NDArray[np.bool_], str]:
@@ -105,56 +100,132 @@ GEO_RANGES = {"sensor_lat": (-90.0, 90.0), "sensor_lon": (-180.0, 360.0)}
 _SHOWN = 10  # problems listed in a constructor's message
 
 
-def _where(rows: NDArray[np.intp], column: str, expected: str,
-           found: NDArray[np.float64]) -> list[str]:
+def _where(rows: NDArray[np.intp], column: str, expected: str, found: NDArray[Any]) -> list[str]:
     return [f"row {int(r) + 1}, column '{column}': expected {expected}, found {float(found[k])!r}"
             for k, r in enumerate(rows[:_SHOWN])]
+
+
+class CellRule(NamedTuple):
+    """A cell's rule: column (None: the row), what it must be, the test and what it reads."""
+
+    column: str | None
+    expected: str
+    reads: tuple[str, ...]
+    broken: Callable[..., NDArray[np.bool_]]
+
+
+def _non_finite(v: NDArray[np.float64]) -> NDArray[np.bool_]:
+    return ~np.isfinite(v)
+
+
+def _beyond(limit: float) -> Callable[[NDArray[np.float64]], NDArray[np.bool_]]:
+    """Test a finite cell beyond ``±limit`` (a non-finite one breaks FINITE)."""
+    return lambda v: (np.abs(v) > limit) & (np.abs(v) != np.inf)
+
+
+def _off_the_earth(v: NDArray[np.float64], column: str) -> NDArray[np.bool_]:
+    return np.isfinite(v) & ~geo_within(v, column)
+
+
+def _of_kind(code: int, broken: Callable[..., NDArray[np.bool_]]
+             ) -> Callable[..., NDArray[np.bool_]]:
+    """Make a test that only rows of kind ``code`` can break (quick where there are none)."""
+    def test(kind: NDArray[np.integer], *columns: NDArray[Any]) -> NDArray[np.bool_]:
+        mine = kind == code
+        if mine.any():
+            mine[mine] = broken(*(c[mine] for c in columns))
+        return mine
+    return test
+
+
+@lru_cache(maxsize=1)
+def _value_rules() -> tuple[tuple[int, str, Callable[..., NDArray[np.bool_]]], ...]:
+    """Each kind's value range: its code, what a value must be, the test ``(kind, value)``."""
+    return tuple((code, str(cls.describe_values()), _of_kind(
+        code, lambda v, cls=cls: np.isfinite(v) & ~cls.check_values(v)))
+        for code, cls in enumerate(KINDS.values()) if cls.value_range is not None)
+
+
+def _sigma_unresolved(kind: NDArray[np.integer], value: NDArray[np.float64],
+                      sigma: NDArray[np.float64]) -> NDArray[np.bool_]:
+    moot = ~np.isfinite(value)  # no value, or one out of its range: its sigma is moot
+    for _, _, out_of_range in _value_rules():
+        moot |= out_of_range(kind, value)
+    return (sigma > 0) & ~moot & ~sigma_resolved(value, sigma)
+
+
+@lru_cache(maxsize=1)
+def cell_rules() -> tuple[CellRule, ...]:
+    """Give the rules of a measurement set's or file's cells, in the order they are told.
+
+    The file checker (``tmakit.io.checker``: with the line, the cell as written) and
+    :func:`column_problems` (a set's rows) report them; a rule applies where the columns it
+    reads are given (``kind_code``: -1 for no kind), and a cell breaks one rule at most.
+    """
+    ranged = [("time", TIME, _beyond(TIME_LIMIT_S))]
+    ranged += [(c, POSITION if j < 3 else VELOCITY, _beyond(REACH_M if j < 3 else SPEED_OF_LIGHT))
+               for j, c in [*enumerate(STATE_COLUMNS), (2, "sensor_alt")]]
+    ranged += [(c, what, partial(_off_the_earth, column=c))
+               for c, what in (("sensor_lat", LATITUDE), ("sensor_lon", LONGITUDE))]
+    rules = [CellRule(c, FINITE, (c,), _non_finite) for c in ("time", "value", "sigma")]
+    for c, what, test in ranged:
+        rules += [CellRule(c, FINITE, (c,), _non_finite)] * (c != "time")
+        rules.append(CellRule(c, what, (c,), test))
+    rules.append(CellRule("sigma", SIGMA_POSITIVE, ("sigma",), lambda s: np.isfinite(s) & ~(s > 0)))
+    for code, cls in enumerate(KINDS.values()):
+        if cls.sensor_at_origin:
+            rules.append(CellRule(None, "the ENU origin (0, 0, 0) as the sensor position of an "
+                                  f"{cls.kind} row", ("kind_code", *STATE_COLUMNS[:3]),
+                                  _of_kind(code, lambda x, y, z: (np.abs(x) > 1e-3)
+                                           | (np.abs(y) > 1e-3) | (np.abs(z) > 1e-3))))
+        rules += [CellRule("value", what, ("kind_code", "value"), test)
+                  for c, what, test in _value_rules() if c == code]
+    return (*rules, CellRule("sigma", SIGMA_RESOLVED, ("kind_code", "value", "sigma"),
+                             _sigma_unresolved))
+
+
+def broken_rows(columns: Mapping[str, NDArray[Any]], block: int = 1 << 15
+                ) -> list[tuple[CellRule, NDArray[np.intp]]]:
+    """Give each rule of :func:`cell_rules` that reads only ``columns`` and the rows breaking it.
+
+    Every rule is tested on one block of rows before the next block (the block stays in the
+    cache; no mask of every row is held).
+    """
+    applied = [r for r in cell_rules() if all(c in columns for c in r.reads)]
+    found: list[list[NDArray[np.intp]]] = [[] for _ in applied]
+    n = next(iter(columns.values())).shape[0]
+    for lo in range(0, n, block):
+        cells = {c: v[lo:lo + block] for c, v in columns.items()}
+        for rule, rows in zip(applied, found, strict=True):
+            with np.errstate(invalid="ignore"):
+                bad = np.flatnonzero(rule.broken(*(cells[c] for c in rule.reads)))
+            if bad.shape[0]:
+                rows.append(bad + lo)
+    return [(rule, np.concatenate(rows) if rows else np.zeros(0, dtype=np.intp))
+            for rule, rows in zip(applied, found, strict=True)]
 
 
 def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
                     kind: NDArray[np.integer], value: NDArray[np.float64],
                     sigma: NDArray[np.float64], sensor_state: NDArray[np.float64],
-                    time_ref: NDArray[np.float64], order: bool = True, ranges: bool = True,
+                    time_ref: NDArray[np.float64], order: bool = True,
                     stream_code: NDArray[np.integer] | None = None) -> list[str]:
     """Check the columns of a measurement set against the rules of the file format."""
+    columns = {"time": time, "value": value, "sigma": sigma, "kind_code": kind,
+               **{name: sensor_state[:, j] for j, name in enumerate(STATE_COLUMNS)}}
     found: list[str] = []
-    cols = {"time": time, "value": value, "sigma": sigma}
-    for name, col in cols.items():
-        bad = np.flatnonzero(~np.isfinite(col))
-        found += _where(bad, name, FINITE, col[bad])
-    bad = np.flatnonzero(np.isfinite(time) & ~_by_blocks(time_within_limit, time))
-    found += _where(bad, "time", TIME, time[bad])
-    for j, name in enumerate(STATE_COLUMNS):
-        col = sensor_state[:, j]
-        # one pass: a cell out of reach is non-finite or too large, told apart on those rows
-        bad = np.flatnonzero(~_by_blocks(lambda c, j=j: state_within_reach(c, j), col))
-        finite = np.isfinite(col[bad])
-        found += _where(bad[~finite], name, FINITE, col[bad[~finite]])
-        found += _where(bad[finite], name, POSITION if j < 3 else VELOCITY, col[bad[finite]])
-    bad = np.flatnonzero(np.isfinite(sigma) & ~(sigma > 0))
-    found += _where(bad, "sigma", SIGMA_POSITIVE, sigma[bad])
-    out_of_range = np.zeros(value.shape, dtype=bool)
-    for code, cls in enumerate(KINDS.values()):
-        if cls.sensor_at_origin and np.any(mine := kind == code):
-            rows = np.flatnonzero(mine)
-            bad = rows[np.any(np.abs(sensor_state[rows, :3]) > 1e-3, axis=1)]
-            found += [f"row {int(r) + 1}: expected the ENU origin (0, 0, 0) as the sensor "
-                      f"position of an {cls.kind} row" for r in bad[:_SHOWN]]
-        if cls.value_range is None or not ranges:
-            continue
-        # masks only (1 byte per row), no index or value copies of the kind's rows
-        wrong = (kind == code) & np.isfinite(value) & ~cls.check_values(value)
-        bad = np.flatnonzero(wrong)
-        found += _where(bad, "value", str(cls.describe_values()), value[bad])
-        out_of_range |= wrong
-    with np.errstate(invalid="ignore"):  # a sigma beside a value out of its range: moot
-        bad = np.flatnonzero((sigma > 0) & np.isfinite(value) & ~out_of_range
-                             & ~_by_blocks(sigma_resolved, value, sigma))
-    found += _where(bad, "sigma", SIGMA_RESOLVED, sigma[bad])
+    for rule, bad in broken_rows(columns):
+        if rule.column is None:
+            found += [f"row {int(r) + 1}: expected {rule.expected}" for r in bad[:_SHOWN]]
+        else:
+            found += _where(bad, rule.column, rule.expected, columns[rule.column][bad])
     bad = np.flatnonzero(np.isinf(time_ref))
     found += _where(bad, "time_ref", FINITE, time_ref[bad])
     if order:
-        found += _order_problems(time, sensor_code)
+        found += [f"row {row + 1}, column 'time': expected a time >= {float(time[prev])!r} s, "
+                  f"the time of the previous row of its sensor (row {prev + 1}), found "
+                  f"{float(time[row])!r}"
+                  for prev, row in decreasing_times(time, sensor_code)[:_SHOWN]]
         far, expected = far_times(time)
         found += _where(np.flatnonzero(far), "time", expected, time[far])
         pairs = duplicate_rows(time, sensor_code if stream_code is None else stream_code, kind,
@@ -163,14 +234,6 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
                   f"time_ref), found {float(time[row])!r}, a duplicate of row {first + 1}"
                   for row, first in pairs[:_SHOWN]]
     return found
-
-
-def _by_blocks(test: Any, *columns: NDArray[Any], block: int = 1 << 16) -> NDArray[np.bool_]:
-    """Apply an elementwise test a block of rows at a time: 1 byte per row, not 8 or 16."""
-    out = np.empty(columns[0].shape[0], dtype=bool)
-    for a in range(0, out.shape[0], block):
-        out[a:a + block] = test(*(c[a:a + block] for c in columns))
-    return out
 
 
 #: The sensor state's columns, in order.
@@ -228,23 +291,18 @@ def duplicate_rows(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
     return sorted(pairs)
 
 
-def _order_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer]
-                    ) -> list[str]:
-    """List the times that decrease within a sensor (file order kept)."""
-    n = time.shape[0]
-    if n < 2:
+def decreasing_times(time: NDArray[np.float64], sensor_code: NDArray[np.integer]
+                     ) -> list[tuple[int, int]]:
+    """Find the rows whose time is below the previous row's of their sensor: (previous, row)."""
+    if time.shape[0] < 2:
         return []
     if int(sensor_code.min()) == int(sensor_code.max()):  # one sensor: no sort, no copies
         back = np.flatnonzero(time[1:] < time[:-1])
-        pairs = [(int(i), int(i) + 1) for i in back[:_SHOWN]]
-    else:  # by sensor, file order within
-        order = np.argsort(sensor_code, kind="stable")
-        t, s = time[order], sensor_code[order]
-        back = np.flatnonzero((s[1:] == s[:-1]) & (t[1:] < t[:-1]))
-        pairs = [(int(order[i]), int(order[i + 1])) for i in back[:_SHOWN]]
-    return [f"row {row + 1}, column 'time': expected a time >= {float(time[prev])!r} s, the "
-            f"time of the previous row of its sensor (row {prev + 1}), found "
-            f"{float(time[row])!r}" for prev, row in pairs]
+        return [(int(i), int(i) + 1) for i in back]
+    order = np.argsort(sensor_code, kind="stable")  # by sensor, file order within
+    t, s = time[order], sensor_code[order]
+    back = np.flatnonzero((s[1:] == s[:-1]) & (t[1:] < t[:-1]))
+    return [(int(order[i]), int(order[i + 1])) for i in back]
 
 
 def _json_numbers(text: str, key: str) -> str | None:
@@ -315,10 +373,10 @@ def raise_problems(found: list[str], what: str = "measurement set") -> None:
         raise ValueError(f"invalid {what}: " + "\n  ".join(found[:3 * _SHOWN]) + more)
 
 
-def check_set(meas: Any, order: bool = True, ranges: bool = True) -> None:
+def check_set(meas: Any, order: bool = True) -> None:
     """Refuse a measurement set that breaks a rule (columns and metadata)."""
     # the rules on the file-unit cells, whose values the messages quote
     found = column_problems(meas.time, meas.sensor_code, meas.kind_code, meas.value,
-                            meas.sigma, meas.sensor_state, meas.time_ref, order, ranges,
+                            meas.sigma, meas.sensor_state, meas.time_ref, order,
                             getattr(meas, "stream_code", lambda: None)())
     raise_problems(found + metadata_problems(meas.metadata))

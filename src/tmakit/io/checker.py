@@ -12,33 +12,25 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Collection, Mapping
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from ..data import REF_STATE_COLUMNS, SENSOR_STATE_COLUMNS, MeasurementSet
 from ..measurements import KINDS
+from ..measurements.codes import KIND_CODES
 from ..rules import (
     FINITE,
-    LATITUDE,
-    LONGITUDE,
-    POSITION,
-    SIGMA_POSITIVE,
-    SIGMA_RESOLVED,
-    TIME,
-    VELOCITY,
+    broken_rows,
     check_set,
+    decreasing_times,
+    duplicate_rows,
     far_times,
-    geo_within,
     metadata_problems,
-    sigma_resolved,
-    state_within_reach,
-    time_within_limit,
 )
 from .errors import MeasurementFileError
 
@@ -49,8 +41,9 @@ __all__ = ["COLUMN_ORDER", "COLUMN_PURPOSE", "FORMAT_LINE", "GEO_COLUMNS", "NUME
            "ORIGIN_KEYS", "PARQUET_METADATA_PREFIX", "QUERY_ROWS", "Layout", "Problems",
            "RawTable", "SensorRecord", "between_sensor_kinds", "blank_mask", "check_cells",
            "check_columns", "check_order", "check_table", "fdoa_carriers", "file_columns",
-           "geodetic_to_enu_in_place", "is_blank", "number_text", "read_numbers",
+           "geodetic_to_enu_in_place", "is_blank", "kind_code_table", "number_text", "read_numbers",
            "ref_of_sensor", "ref_sensor_state", "reference_kinds", "reference_kinds_text",
+           "reference_problems",
            "resolve_origin", "sensor_state", "show", "text_column"]
 
 
@@ -633,15 +626,6 @@ def _check_velocity(has: Callable[[str], bool], kinds: list[str], problems: Prob
     return bool(has_vx and has_vy)
 
 
-RowCheck = Callable[[NDArray[Any], NDArray[np.intp]], NDArray[np.bool_]]
-
-
-def value_ranges() -> list[tuple[str, Callable[[ArrayLike], NDArray[np.bool_]], str]]:
-    """Return the value ranges checked per kind, from each kind's hook (``value_range``)."""
-    return [(k, cls.check_values, cls.value_range.describe(cls.file_unit))
-            for k, cls in KINDS.items() if cls.value_range is not None]
-
-
 def read_numbers(frame: pd.DataFrame, problems: Problems) -> Numbers:
     """Numeric columns as float64 (NaN for empty cells), via pandera's coercion."""
     import pandas as pd
@@ -681,155 +665,124 @@ def read_numbers(frame: pd.DataFrame, problems: Problems) -> Numbers:
     return {c: table[c].to_numpy(dtype=np.float64, copy=True) for c in present}
 
 
-class _Cells:
-    """A file's columns, each cell checked rule by rule (the first rule it breaks is recorded)."""
-
-    def __init__(self, values: dict[str, NDArray[Any]], problems: Problems) -> None:
-        self.values, self.problems = values, problems
-        self.rows = np.arange(len(problems.raw.frame))
-
-    def check(self, column: str, ok: RowCheck, what: str | Callable[[int], str],
-              ignore_na: bool = True) -> None:
-        """Record ``what`` was expected at each cell of ``column`` where ``ok`` fails."""
-        v = self.values[column]
-        with np.errstate(invalid="ignore"):
-            bad = ~np.asarray(ok(v, self.rows), dtype=bool)
-        if ignore_na and v.dtype == np.float64:  # empty cells pass
-            bad &= ~np.isnan(v)
-        for row in np.flatnonzero(bad).tolist():
-            self.problems.cell(row, column, what(row) if callable(what) else what)
-
-    def number(self, column: str) -> None:
-        """Record each empty or non-finite cell of a column that needs a number."""
-        self.check(column, lambda v, r: ~np.isnan(v), "a number", ignore_na=False)
-        self.check(column, lambda v, r: np.isfinite(v), FINITE)
-
-
 def check_cells(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
                 is_rd: NDArray[np.bool_], problems: Problems,
                 ref_name: NDArray[np.object_] | None = None) -> NDArray[np.bool_]:
     """Check every cell against the per-cell rules; record one problem per failing cell."""
+    def record(column: str, bad: NDArray[Any], what: Expected) -> None:  # a mask, or rows
+        for row in (np.flatnonzero(bad) if bad.dtype == bool else bad).tolist():
+            problems.cell(row, column, what(row) if callable(what) else what)
+
     text = {c: text_column(frame[c]) for c in ("sensor", "kind", "ref_sensor")
             if c in frame.columns}
-    cells = _Cells({**num, **text}, problems)
-    _basic_checks(cells, num, kind)
-    ref_given = np.zeros(len(frame), dtype=bool)
-    for c in REF_STATE_COLUMNS:
+    if "sensor" in text:
+        record("sensor", np.array([s.strip() == "" for s in text["sensor"]], dtype=bool),
+               "a sensor id (text)")
+    if "kind" in text:
+        record("kind", ~np.isin(text["kind"].astype(str), list(KINDS)),
+               f"one of the kinds {', '.join(KINDS)}")
+    for c in ("time", "value", "sigma", *SENSOR_STATE_COLUMNS, *GEO_COLUMNS):
         if c in num:
-            ref_given |= ~np.isnan(num[c])
+            record(c, np.isnan(num[c]), "a number")
+    for rule, rows in broken_rows({**num, "kind_code": _kind_codes(kind)}):
+        if rule.column is not None:  # (a row's own rule is the set's: MeasurementSet's)
+            record(rule.column, rows, rule.expected)
+    ref = {c: num[c] for c in REF_STATE_COLUMNS if c in num}
+    ref_given = np.zeros(len(frame), dtype=bool)
+    for v in ref.values():
+        ref_given |= ~np.isnan(v)
     ref_given &= is_rd
     if "kind" not in frame.columns:
         return ref_given
-    if "time_ref" in num:
-        _time_ref_checks(cells, num, kind, is_rd)
     named = np.zeros(len(frame), dtype=bool) if ref_name is None else ref_name != ""
-    for c in REF_STATE_COLUMNS:
-        if c in num:
-            _ref_state_checks(cells, c, kind, is_rd, ref_given, named)
-    if ref_name is not None:
-        _ref_name_checks(cells, kind)
+    between = np.isin(kind, between_sensor_kinds())
+    for column, bad, what in reference_problems(
+            num.get("time", np.full(len(frame), np.nan)), num.get("time_ref"), kind.__getitem__,
+            is_rd, between, ref, named):
+        record(column, bad, what)
+    if "ref_sensor" in text:  # only on tdoa/fdoa rows, another sensor than the row's
+        name = text["ref_sensor"]
+        own = text.get("sensor", np.full(kind.shape[0], "", dtype=object))
+        record("ref_sensor", np.array([x.strip() != "" for x in name], dtype=bool) & ~between,
+               lambda row: "an empty cell: only tdoa and fdoa rows name a reference sensor "
+                           f"(this row is {kind[row] or 'of no kind'})")
+        record("ref_sensor", np.array([x.strip() == str(o).strip() for x, o in
+                                       zip(name, own, strict=True)], dtype=bool),
+               lambda row: f"another sensor than the row's own ({own[row]!r})")
     if "carrier" in num:
-        cells.check("carrier", lambda v, r: (v > 0) & np.isfinite(v),
-                    "a carrier frequency > 0 (Hz)")
-        cells.check("carrier", lambda v, r: np.isnan(v) | (kind[r] == "fdoa"),
-                    lambda row: "an empty cell: only fdoa rows have a carrier (this row is "
-                                f"{kind[row] or 'of no kind'})", ignore_na=False)
+        carrier = num["carrier"]
+        with np.errstate(invalid="ignore"):
+            record("carrier", ~np.isnan(carrier) & ~((carrier > 0) & np.isfinite(carrier)),
+                   "a carrier frequency > 0 (Hz)")
+        record("carrier", ~np.isnan(carrier) & (kind != "fdoa"),
+               lambda row: "an empty cell: only fdoa rows have a carrier (this row is "
+                           f"{kind[row] or 'of no kind'})")
     return ref_given
 
 
-def _basic_checks(cells: _Cells, num: Numbers, kind: NDArray[np.object_]) -> None:
-    """Sensor id, kind, finite numbers, value ranges per kind, sigma > 0, lat/lon ranges."""
-    if "sensor" in cells.values:
-        cells.check("sensor", lambda v, r: np.array([s.strip() != "" for s in v], dtype=bool),
-                    "a sensor id (text)")
-    if "kind" in cells.values:
-        cells.check("kind", lambda v, r: np.isin(v.astype(str), list(KINDS)),
-                    f"one of the kinds {', '.join(KINDS)}")
-    for c in ("time", "value", "sigma", *SENSOR_STATE_COLUMNS, *GEO_COLUMNS):
-        if c in num:
-            cells.number(c)
-    if "time" in num:
-        cells.check("time", lambda v, r: time_within_limit(v), TIME)
-    for j, c in [*enumerate(SENSOR_STATE_COLUMNS), (2, "sensor_alt")]:
-        if c in num:
-            cells.check(c, partial(_reach, column=j), POSITION if j < 3 else VELOCITY)
-    if "value" in num:
-        for k, ok, what in value_ranges():
-            cells.check("value", _for_kind(kind, k, ok), what)
-    if "sigma" in num:
-        cells.check("sigma", lambda v, r: v > 0, SIGMA_POSITIVE)
-    if "sigma" in num and "value" in num:
-        value = num["value"]
-        moot = ~np.isfinite(value)  # no value, or one out of its range: sigma is moot
-        for k, ok, _ in value_ranges():
-            moot |= (kind == k) & ~ok(value)
-        cells.check("sigma", lambda v, r: ~(v > 0) | moot[r] | sigma_resolved(value[r], v),
-                    SIGMA_RESOLVED)
-    if "sensor_lat" in num:
-        cells.check("sensor_lat", lambda v, r: geo_within(v, "sensor_lat"), LATITUDE)
-    if "sensor_lon" in num:
-        cells.check("sensor_lon", lambda v, r: geo_within(v, "sensor_lon"), LONGITUDE)
+def _kind_codes(kind: NDArray[np.object_]) -> NDArray[np.int8]:
+    """Give each row's kind code (-1 for no kind or an unknown one)."""
+    import pandas as pd
+
+    codes, uniques = pd.factorize(kind)
+    return np.append(kind_code_table(uniques), np.int8(-1))[codes]
 
 
-def _reach(values: NDArray[np.float64], rows: object, column: int) -> NDArray[np.bool_]:
-    """Tell where a sensor state column lies within reach (a column check's signature)."""
-    return state_within_reach(values, column)
+def kind_code_table(names: Sequence[str]) -> NDArray[np.int8]:
+    """Give the code of each kind name (-1 for a text that names no kind)."""
+    return np.array([KIND_CODES.get(k, -1) for k in names], dtype=np.int8)
 
 
-def _for_kind(kind: NDArray[np.object_], k: str,
-              ok: Callable[[NDArray[np.float64]], NDArray[np.bool_]]) -> RowCheck:
-    """Make a value check that holds on the rows of kind ``k`` only."""
-    return lambda v, r: ok(v) | (kind[r] != k)
+Expected = str | Callable[[int], str]
 
 
-def _time_ref_checks(cells: _Cells, num: Numbers, kind: NDArray[np.object_],
-                     is_rd: NDArray[np.bool_]) -> None:
-    """time_ref: present exactly on range-difference rows, finite, before time."""
-    t = num.get("time", np.full(is_rd.shape[0], np.nan))
-    between = np.isin(kind, between_sensor_kinds())
-    cells.check("time_ref", lambda v, r: ~np.isnan(v) | ~is_rd[r],
-                f"a time_ref (s) before time: {reference_kinds_text()} rows need one",
-                ignore_na=False)
-    cells.check("time_ref", lambda v, r: np.isnan(v) | is_rd[r],
-                lambda row: f"an empty cell: only {reference_kinds_text()} rows have a "
-                            f"time_ref (this row is {kind[row] or 'of no kind'})",
-                ignore_na=False)
-    cells.check("time_ref", lambda v, r: np.isfinite(v), FINITE)
-    cells.check("time_ref", lambda v, r: ~(v >= t[r]) | ~is_rd[r] | between[r],
-                lambda row: f"a time_ref before time ({number_text(t[row])} s)")
-    cells.check("time_ref", lambda v, r: (v == t[r]) | ~between[r],
-                lambda row: f"the row's own time ({number_text(t[row])} s): a {kind[row]} is "
-                            "between two sensors at one time")
+def reference_problems(time: NDArray[np.float64], time_ref: NDArray[np.float64] | None,
+                       kind_of: Callable[[int], str], is_rd: NDArray[np.bool_],
+                       between: NDArray[np.bool_], ref: Mapping[str, NDArray[np.float64]],
+                       named: NDArray[np.bool_] | None = None
+                       ) -> Iterator[tuple[str, NDArray[np.bool_], Expected]]:
+    """Give the range-difference cells that break a rule: column, rows, what was expected.
 
+    ``time_ref`` is None without the column, ``ref`` holds the ``ref_sensor_*`` columns given,
+    ``named`` flags the rows that name their reference sensor (``ref_sensor``), ``kind_of``
+    names a row's kind ('' for none).  The checker reports them cell by cell; the stream
+    leaves a block that breaks one to the checker.
+    """
+    rd_kinds = reference_kinds_text()
 
-def _ref_state_checks(cells: _Cells, c: str, kind: NDArray[np.object_],
-                      is_rd: NDArray[np.bool_], ref_given: NDArray[np.bool_],
-                      named: NDArray[np.bool_]) -> None:
-    """Check a ref_sensor_* column: only on range-difference rows, all or none of a row, finite."""
-    between = np.isin(kind, between_sensor_kinds())
-    cells.check(c, lambda v, r: ~np.isnan(v) | ~between[r] | named[r],
-                lambda row: f"a number: a {kind[row]} row gives its reference sensor's state "
-                            "(or names it in ref_sensor)", ignore_na=False)
-    cells.check(c, lambda v, r: np.isnan(v) | is_rd[r],
-                lambda row: f"an empty cell: only {reference_kinds_text()} rows have a sensor "
-                            f"state at time_ref (this row is {kind[row] or 'of no kind'})",
-                ignore_na=False)
-    cells.check(c, lambda v, r: ~np.isnan(v) | ~ref_given[r] | ~is_rd[r],
-                "a number (the other ref_sensor_* cells of this row are given; give all or "
-                "none)", ignore_na=False)
-    cells.check(c, lambda v, r: np.isfinite(v), FINITE)
+    def of_kind(row: int) -> str:
+        return kind_of(row) or "of no kind"
 
-
-def _ref_name_checks(cells: _Cells, kind: NDArray[np.object_]) -> None:
-    """Check a ref_sensor name: only on tdoa/fdoa rows, another sensor than the row's."""
-    between = np.isin(kind, between_sensor_kinds())
-    own = cells.values.get("sensor", np.full(kind.shape[0], "", dtype=object))
-    cells.check("ref_sensor", lambda v, r: np.array([x.strip() == "" for x in v]) | between[r],
-                lambda row: "an empty cell: only tdoa and fdoa rows name a reference sensor "
-                            f"(this row is {kind[row] or 'of no kind'})")
-    cells.check("ref_sensor", lambda v, r: np.array([x.strip() != str(o).strip()
-                                                     for x, o in zip(v, own[r], strict=True)]),
-                lambda row: f"another sensor than the row's own ({own[row]!r})")
+    with np.errstate(invalid="ignore"):
+        if time_ref is not None:  # present exactly on range differences, finite, before time
+            empty = np.isnan(time_ref)
+            yield ("time_ref", empty & is_rd,
+                   f"a time_ref (s) before time: {rd_kinds} rows need one")
+            yield ("time_ref", ~empty & ~is_rd,
+                   lambda row: f"an empty cell: only {rd_kinds} rows have a time_ref (this row "
+                               f"is {of_kind(row)})")
+            yield "time_ref", np.isinf(time_ref), FINITE
+            yield ("time_ref", (time_ref >= time) & is_rd & ~between,
+                   lambda row: f"a time_ref before time ({number_text(time[row])} s)")
+            yield ("time_ref", (time_ref != time) & between & ~empty,
+                   lambda row: f"the row's own time ({number_text(time[row])} s): a "
+                               f"{kind_of(row)} is between two sensors at one time")
+        given = np.zeros(is_rd.shape[0], dtype=bool)  # all or none of a row, finite
+        for v in ref.values():
+            given |= ~np.isnan(v)
+        given &= is_rd
+        unnamed = between if named is None else between & ~named
+        for c, v in ref.items():
+            empty = np.isnan(v)
+            yield (c, empty & unnamed,
+                   lambda row: f"a number: a {kind_of(row)} row gives its reference sensor's "
+                               "state (or names it in ref_sensor)")
+            yield (c, ~empty & ~is_rd,
+                   lambda row: f"an empty cell: only {rd_kinds} rows have a sensor state at "
+                               f"time_ref (this row is {of_kind(row)})")
+            yield (c, empty & given, "a number (the other ref_sensor_* cells of this row are "
+                                     "given; give all or none)")
+            yield c, np.isinf(v), FINITE
 
 
 def check_order(num: dict[str, NDArray[np.float64]], sensor: NDArray[np.object_],
@@ -846,28 +799,19 @@ def check_order(num: dict[str, NDArray[np.float64]], sensor: NDArray[np.object_]
     far, expected = far_times(np.where(problems.bad_rows("time"), np.nan, t))
     for far_row in np.flatnonzero(far).tolist():
         problems.cell(far_row, "time", expected)
-    # codes, not text: equal ids give equal codes, and groupby on integers is light
-    table = pd.DataFrame({"sensor": pd.factorize(sensor[rows])[0],
-                          "kind": pd.factorize(kind[rows])[0],
-                          "time": t[rows], "time_ref": tr[rows], "row": rows,
-                          "tonal": 0 if tonal is None else pd.factorize(tonal[rows])[0]})
-    by_sensor = table.groupby("sensor", sort=False)
-    prev_row = by_sensor["row"].shift().to_numpy()
-    prev_time = by_sensor["time"].shift().to_numpy()
-    for i in np.flatnonzero(prev_time > table["time"].to_numpy()).tolist():
-        row, prev, s = int(rows[i]), int(prev_row[i]), sensor[rows[i]]
+    code = pd.factorize(sensor[rows])[0]  # codes, not text: equal ids give equal codes
+    for prev, row in ((int(rows[p]), int(rows[r])) for p, r in decreasing_times(t[rows], code)):
         problems.cell(row, "time",
                       f"a time >= {number_text(t[prev])} s, the time of the previous row of "
-                      f"sensor '{s}' ({problems.where(prev)})",
-                      f"{number_text(t[row])} (time decreases for sensor '{s}')")
-
-    table = table[~problems.bad_rows("kind", "time_ref")[rows]]
-    key = ["sensor", "kind", "time", "time_ref", "tonal"]
-    first = table.groupby(key, sort=False, dropna=False)["row"].transform("first")
-    for row, prev in zip(table["row"].to_numpy(), first.to_numpy(), strict=True):
-        if row == prev:
-            continue
+                      f"sensor '{sensor[row]}' ({problems.where(prev)})",
+                      f"{number_text(t[row])} (time decreases for sensor '{sensor[row]}')")
+    keep = ~problems.bad_rows("kind", "time_ref")[rows]
+    rows, code = rows[keep], code[keep]
+    if tonal is not None and rows.shape[0]:  # one value per time and tonal
+        code = code + pd.factorize(tonal[rows])[0] * (int(code.max()) + 1)
+    for row, first in ((int(rows[r]), int(rows[f])) for r, f in
+                       duplicate_rows(t[rows], code, pd.factorize(kind[rows])[0], tr[rows])):
         ref = "" if math.isnan(tr[row]) else f", time_ref {number_text(tr[row])}"
-        problems.cell(int(row), "time", "one row per (sensor, kind, time, time_ref)",
-                      f"a duplicate of {problems.where(int(prev))} (sensor '{sensor[row]}', "
+        problems.cell(row, "time", "one row per (sensor, kind, time, time_ref)",
+                      f"a duplicate of {problems.where(first)} (sensor '{sensor[row]}', "
                       f"kind '{kind[row]}', time {number_text(t[row])}{ref})")

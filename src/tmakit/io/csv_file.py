@@ -21,12 +21,12 @@ from numpy.typing import NDArray
 
 from .. import rules
 from ..data import REF_STATE_COLUMNS, MeasurementSet
-from ..measurements import KINDS
-from ..measurements.codes import KIND_CODES, KIND_NAMES
-from ..rules import GEO_RANGES, geo_within
+from ..measurements.codes import KIND_NAMES, kind_flags
+from ..rules import broken_rows
 from .checker import (
     COLUMN_ORDER,
     FORMAT_LINE,
+    GEO_COLUMNS,
     NUMERIC_COLUMNS,
     QUERY_ROWS,
     Problems,
@@ -36,6 +36,8 @@ from .checker import (
     check_table,
     file_columns,
     geodetic_to_enu_in_place,
+    kind_code_table,
+    reference_problems,
     resolve_origin,
 )
 from .errors import MeasurementFileError
@@ -66,10 +68,7 @@ _STATE_COLUMN = {"sensor_x": 0, "sensor_y": 1, "sensor_z": 2, "sensor_vx": 3, "s
                  "sensor_vz": 5, "sensor_lat": 0, "sensor_lon": 1, "sensor_alt": 2}
 #: Columns of range differences (empty on other rows).
 _REFERENCE = ("time_ref", *REF_STATE_COLUMNS)
-#: Whether each kind code uses a reference sample (range differences).
-_USES_REFERENCE = np.array([KINDS[k].uses_reference for k in KIND_NAMES], dtype=bool)
-#: Whether each kind code is a difference between sensors at one time (tdoa, fdoa).
-_BETWEEN_SENSORS = np.array([KINDS[k].between_sensors for k in KIND_NAMES], dtype=bool)
+_USES_REFERENCE, _BETWEEN_SENSORS = kind_flags("uses_reference"), kind_flags("between_sensors")
 
 
 def split_metadata(text: str) -> tuple[dict[str, str], int, int]:
@@ -203,11 +202,13 @@ def _stream_header(path: Path, start: int) -> list[str] | None:
             return None
     if not names or any("\n" in n or "\r" in n for n in names):
         return None
-    stripped = [n.strip() for n in names]
+    try:
+        stripped = _checked_header(path, names, 0, [])  # no column twice, none unnamed
+    except MeasurementFileError:
+        return None
     problems = Problems(RawTable(None, {}, None))
     check_columns(stripped, [], problems)  # (the kinds' own needs are checked once read)
-    if (problems.file or "" in stripped or len(set(stripped)) != len(stripped)
-            or "ref_sensor" in stripped or "carrier" in stripped  # named, scaled: the checker
+    if (problems.file or "ref_sensor" in stripped or "carrier" in stripped  # the checker's
             or (any(c in stripped for c in REF_STATE_COLUMNS) and "time_ref" not in stripped)):
         return None
     return names
@@ -227,6 +228,7 @@ class _Columns:
         self.time_ref: NDArray[np.float64] | None = None
         self.ref: NDArray[np.float64] | None = None
         self.ref_columns: list[int] = []
+        self.has_time_ref = False
 
     def resize(self, size: int) -> None:
         """Give every per-row array ``size`` rows, in place."""
@@ -246,6 +248,7 @@ class _Columns:
         """Store a block of ``time_ref`` or a ``ref_sensor_*`` column (NaN for empty)."""
         lo, hi = self.n, self.n + values.shape[0]
         if name == "time_ref":
+            self.has_time_ref = True
             if self.time_ref is None and np.isnan(values).all():
                 return
             if self.time_ref is None:  # the first one given: the rows before had none
@@ -264,33 +267,22 @@ class _Columns:
     def block_is_valid(self, k: int) -> bool:
         """Check the range-difference cells of the block of ``k`` rows just stored."""
         lo, hi = self.n, self.n + k
-        is_rd = _USES_REFERENCE[self.kind[lo:hi]]
         between = _BETWEEN_SENSORS[self.kind[lo:hi]]
-        earlier = is_rd & ~between
-        if self.time_ref is None:
-            ok = not is_rd.any()
-        else:
-            time, time_ref = self.num["time"][lo:hi], self.time_ref[lo:hi]
-            with np.errstate(invalid="ignore"):
-                ok = bool(np.array_equal(np.isnan(time_ref), ~is_rd)
-                          and not np.isinf(time_ref).any()
-                          and np.all(time_ref[earlier] < time[earlier])
-                          and np.all(time_ref[between] == time[between]))
-        if ok and self.ref is not None:
-            cells = self.ref[lo:hi, self.ref_columns]
-            given = ~np.isnan(cells)
-            row_given = given.any(axis=1)
-            ok = not (np.isinf(cells).any() or (row_given & ~is_rd).any()
-                      or (row_given & ~given.all(axis=1)).any() or (between & ~row_given).any())
-        elif ok:
-            ok = not between.any()
-        return ok
+        if not self.ref_columns and between.any():  # tdoa, fdoa: no reference state
+            return False
+        nan = np.broadcast_to(np.float64(np.nan), (k,))  # (no cell given yet)
+        time_ref = (None if not self.has_time_ref else
+                    nan if self.time_ref is None else self.time_ref[lo:hi])
+        ref = {REF_STATE_COLUMNS[i]: nan if self.ref is None else self.ref[lo:hi, i]
+               for i in self.ref_columns}
+        kind = self.kind[lo:hi]
+        return not any(np.any(bad) for _, bad, _ in reference_problems(
+            self.num["time"][lo:hi], time_ref, lambda row: KIND_NAMES[kind[row]],
+            _USES_REFERENCE[kind], between, ref))
 
     def put_number(self, name: str, values: NDArray[np.float64]) -> None:
-        """Store a block of a numeric column (finite numbers only)."""
-        if not np.isfinite(values).all():
-            raise _Fallback
-        if name in GEO_RANGES and not geo_within(values, name).all():
+        """Store a block of a numeric column (geodetic cells checked now: the set holds ENU)."""
+        if name in GEO_COLUMNS and any(rows.shape[0] for _, rows in broken_rows({name: values})):
             raise _Fallback
         lo, hi = self.n, self.n + values.shape[0]
         if name in self.num:
@@ -300,7 +292,7 @@ class _Columns:
 
     def put_kind(self, indices: NDArray[np.integer], names: list[str]) -> None:
         """Store a block of kind codes from its dictionary (known kinds only)."""
-        table = np.array([KIND_CODES.get(k, -1) for k in names], dtype=np.int8)
+        table = kind_code_table(names)
         if np.any(table < 0):
             raise _Fallback
         self.kind[self.n:self.n + indices.shape[0]] = table[indices]
@@ -417,8 +409,10 @@ def stream_csv(path: Path, scan: int = 1 << 20,
     try:
         cols = _read_blocks(path, start, names)
         present = np.bincount(cols.kind, minlength=len(KIND_NAMES)) > 0
-        if "sensor_vx" not in stripped and any(
-                KINDS[k].uses_velocity for k, p in zip(KIND_NAMES, present, strict=True) if p):
+        problems = Problems(RawTable(None, {}, None))  # the columns the kinds read
+        check_columns(stripped, [k for k, p in zip(KIND_NAMES, present, strict=True) if p],
+                      problems)
+        if problems.file:
             return None
         if enu_origin is not None:
             if "sensor_alt" not in stripped:  # as the full reader: the origin's altitude

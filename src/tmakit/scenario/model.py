@@ -407,7 +407,7 @@ class Scenario:
         for i in np.flatnonzero(~np.isfinite(values).all(axis=1)).tolist():
             bad = template.take(np.arange(len(template)))
             bad.value_si = values[i]
-            rules.check_set(bad, order=False, ranges=False)
+            rules.check_set(bad, order=False)
         rules.check_set(template)  # the file's rules, time order and value ranges too
         return template, values
 
