@@ -302,6 +302,15 @@ def test_missing_required_column(tmp_path, column):
     assert f"column '{column}' is missing: " in message
 
 
+def test_a_csv_without_any_column_of_the_format_names_every_missing_one(tmp_path):
+    # a wide log given without its mapping (tma examples' bearings.csv): no known column at all
+    path = tmp_path / "bearings.csv"
+    path.write_text("epoch_s,bearing_deg\n1777887010.000,229.34\n")
+    message = refused(path)
+    assert str(path) in message
+    assert all(f"column '{c}' is missing: " in message for c in HEADER.split(",")[:7])
+
+
 def test_missing_velocity_names_the_kinds_that_need_it(tmp_path):
     header = "time,sensor,kind,value,sigma,sensor_x,sensor_y,time_ref"
     rows = [",".join(r.split(",")[:7] + r.split(",")[9:]) for r in GOOD_ROWS]

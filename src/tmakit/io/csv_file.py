@@ -522,7 +522,10 @@ def load_csv(path: Path, as_text: bool = False) -> RawTable:
         frame = _read_table(body, raw_names, as_text)
     except (pa.ArrowException, ValueError) as e:
         raise MeasurementFileError(path, [f"cannot read the CSV table ({e})"]) from None
-    frame.columns = [n for n in names if n in READ_COLUMNS]  # others are ignored: not read
+    kept = [n for n in names if n in READ_COLUMNS]  # others are ignored: not read
+    if not kept:  # pyarrow reads every column when it is asked for none
+        frame = frame.iloc[:, :0]
+    frame.columns = kept
     line_numbers = lines if len(lines) == len(frame) else None
     return RawTable(frame, metadata, line_numbers)
 
