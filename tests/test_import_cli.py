@@ -30,6 +30,21 @@ def test_examples_writes_the_samples_and_refuses_to_overwrite(tmp_path):
     assert run("examples", folder, "--force").exit_code == 0
 
 
+def test_examples_and_demo_into_a_file_or_under_one_are_refused_naming_the_folder(tmp_path):
+    a_file = tmp_path / "obs.csv"
+    a_file.write_text("mine\n")
+    for args, said in ((("examples", a_file), f"{a_file}: a file of that name exists; "
+                        "expected a folder"),
+                       (("examples", a_file / "sub"), f"{a_file / 'sub'}: the folder cannot "
+                        "be made (Not a directory)"),
+                       (("demo", "--out-dir", a_file / "sub"), f"--out-dir {a_file / 'sub'}: "
+                        "the folder cannot be made (Not a directory)")):
+        result = run(*args)
+        assert result.exit_code == 2, result.output
+        assert said in " ".join(result.output.split())
+    assert a_file.read_text() == "mine\n"
+
+
 def test_import_rep_writes_tmakits_file_with_clock_time_and_origin(tmp_path):
     folder = examples(tmp_path)
     out = folder / "obs.parquet"

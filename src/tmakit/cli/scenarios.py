@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -208,18 +209,29 @@ def demo(
     show([csv], plot=png, origin=None, force=True)
 
 
+def make_output_folder(folder: Path, option: str) -> None:
+    """Make an output folder (and its parents), or end naming it and why it cannot be one."""
+    if folder.exists() and not folder.is_dir():
+        raise fail(f"{option}{folder}: a file of that name exists; expected a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise fail(f"{option}{folder}: the folder cannot be made ({e.strerror or e})") from None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise fail(f"{option}{folder}: the folder cannot be written")
+
+
 def prepare_demo_folder(folder: Path, force: bool) -> None:
     """Make ``folder`` an empty demo folder, replacing an earlier demo's."""
     import shutil
 
-    if folder.exists() and not folder.is_dir():
-        raise fail(f"--out-dir {folder}: a file of that name exists")
-    if folder.is_dir() and any(folder.iterdir()):
+    make_output_folder(folder, "--out-dir ")
+    if any(folder.iterdir()):
         if not (folder / DEMO_MARK).exists() and not force:
             raise fail(f"--out-dir {folder}: the folder holds files that tma demo did not "
                        "write; choose another folder or use --force to replace it")
         shutil.rmtree(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+        folder.mkdir()
     (folder / DEMO_MARK).write_text("written by tma demo; replaced when it runs again\n")
 
 
@@ -411,7 +423,7 @@ def examples(
     targets = [folder / name for name in EXAMPLE_FILES]
     for t in targets:
         refuse_existing(t, force)
-    folder.mkdir(parents=True, exist_ok=True)
+    make_output_folder(folder, "")
     from ..io import atomic_write
 
     for name, target in zip(EXAMPLE_FILES, targets, strict=True):
