@@ -98,6 +98,21 @@ def test_far_sensors_and_far_estimates_are_warned_about():
     assert "radians" in codes and "far-estimate" in codes
 
 
+def test_a_track_that_cannot_start_from_bearings_in_radians_says_they_look_like_radians(
+        tmp_path):
+    meas = tk.load_scenario("bearings-only-2d").simulate(rng=1)
+    rad = tk.MeasurementSet.from_si(meas.time, meas.sensor, meas.kind,
+                                    np.radians(meas.value_si), meas.sigma_si,
+                                    meas.sensor_state)
+    path = tmp_path / "radians.csv"
+    tk.write_measurements(rad, path)
+    out = run("track", str(path))
+    assert out.exit_code == 2, out.output
+    said = " ".join(out.output.split())
+    assert "error: cannot start the filter" in said
+    assert "were they written in radians? Multiply by 180/π" in said
+
+
 def test_solution_picture_is_written_and_existing_files_are_refused_before_work(tmp_path):
     path = tmp_path / "bo.csv"
     tk.write_measurements(tk.load_scenario("bearings-only-2d").simulate(rng=3), path)

@@ -223,8 +223,15 @@ def track_files(paths: list[Path], reading: tuple[Any, int | None, dict[str, Any
         density = tracking.noise_density(parse_q(q[1], d, "--q-density"), d)
     except tracking.TrackingError as e:
         raise tracking_failure(e) from None
-    tr = run_track(meas, filter_name, {**keywords, "q": q_axes, "q_density": density, "dim": d},
-                   *smooth)
+    try:
+        tr = run_track(meas, filter_name,
+                       {**keywords, "q": q_axes, "q_density": density, "dim": d}, *smooth)
+    except typer.Exit:
+        if notes:  # what the data show that may be why (angles in radians, sensors far away)
+            from ..results import measurement_warnings
+
+            print_warnings(measurement_warnings(meas))
+        raise
     return meas, tr, tracking.truth_states(meas, tr.times, d)
 
 
