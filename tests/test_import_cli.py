@@ -30,6 +30,18 @@ def test_examples_writes_the_samples_and_refuses_to_overwrite(tmp_path):
     assert run("examples", folder, "--force").exit_code == 0
 
 
+def test_the_legs_printed_say_a_path_that_ends_turning_up_to_the_data_end(tmp_path):
+    # the sample drone flies straight for a minute, then circles to the end of its log
+    folder = examples(tmp_path / "ex")
+    result = run("estimate", folder / "drone.csv", "--mapping", folder / "drone.toml",
+                 "--motion", "static2d", "--dim", "2")
+    assert result.exit_code == 0, result.output
+    legs = result.output.split("own-ship legs of drone")[1].splitlines()[1:]
+    assert legs[0].startswith("  leg 1: 09:30:00 to ")
+    assert legs[1].endswith(" to 09:32:59 (no straight leg after leg 1)")
+    assert legs[1].startswith("  turning: ")
+
+
 def test_examples_and_demo_into_a_file_or_under_one_are_refused_naming_the_folder(tmp_path):
     a_file = tmp_path / "obs.csv"
     a_file.write_text("mine\n")

@@ -629,6 +629,15 @@ def print_legs(meas: Any, result: Any, units: str) -> None:
         if k < len(legs["turns"]):
             u = legs["turns"][k]
             lines.append(f"  turn: {_span(meas, u)}, {u['change_deg']:+.0f} deg")
+    if legs and legs["legs"]:  # a path that starts or ends turning (a drone circling)
+        t = meas.time[meas.sensor_mask(legs["sensor"])]
+        first, last = legs["legs"][0]["start"], legs["legs"][-1]["stop"]
+        if float(t.min()) < first:
+            lines.insert(1, f"  turning: {_span(meas, {'start': float(t.min()), 'stop': first})}"
+                            " (no straight leg before leg 1)")
+        if float(t.max()) > last:
+            lines.append(f"  turning: {_span(meas, {'start': last, 'stop': float(t.max())})} "
+                         f"(no straight leg after leg {len(legs['legs'])})")
     lines += ["contact legs (the manoeuvre fit's segments):"] if target else []
     for k, leg in enumerate(target or []):
         course = (f"course {leg['course_deg']:.1f} deg" if leg["turn_deg"] is None
