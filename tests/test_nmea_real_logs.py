@@ -21,6 +21,7 @@ from tmakit.io.errors import reader_notes
 from tmakit.io.wide_log import read_gpx_fixes, read_nmea_fixes, read_track_fixes
 
 DATA = Path(__file__).parent / "data" / "nmea"
+GPX = Path(__file__).parent / "data" / "gpx"
 
 
 def stamp(fixes, k):
@@ -127,6 +128,55 @@ def bearings_log(tmp_path, fixes):
     toml.write_text('time = "epoch_s"\nsensor = "ship"\n[[measurement]]\ncolumn = "bearing_deg"'
                     '\nkind = "bearing"\nunit = "deg"\nsigma = 1.0\n')
     return log, toml
+
+
+def gpx_points(path):
+    import gpxpy
+
+    with open(path, "rb") as f:
+        g = gpxpy.parse(f)
+    return [p for t in g.tracks for s in t.segments for p in s.points if p.time is not None]
+
+
+@pytest.mark.parametrize("name", ["around-visnjan-with-car.gpx", "track-with-empty-segment.gpx"])
+def test_real_gpx_tracks_are_read_point_for_point_as_gpxpy_reads_them(name):
+    points, fixes = gpx_points(GPX / name), read_track_fixes(GPX / name)
+    assert fixes.time_ns.tolist() == [int(p.time.timestamp()) * 10**9 for p in points]
+    assert fixes.lat.tolist() == [p.latitude for p in points]
+    assert fixes.lon.tolist() == [p.longitude for p in points]
+    assert fixes.alt.tolist() == [p.elevation for p in points]
+
+
+def test_a_real_gpx_whose_clock_reads_1901_is_refused_for_its_times():
+    with pytest.raises(MeasurementFileError) as info:
+        read_track_fixes(GPX / "Mojstrovka.gpx")
+    said = str(info.value)
+    assert said.startswith(str(GPX / "Mojstrovka.gpx"))
+    assert "point at 1901-12-13T20:45:52.207Z, time: expected a date between 1970 and 2200" in said
+
+
+def test_gpx_points_at_one_time_are_read_once_when_equal_and_refused_when_apart(tmp_path):
+    # the real car track written twice in one file (two <trk>), then with the second copy moved
+    text = (GPX / "around-visnjan-with-car.gpx").read_text(encoding="utf-8")
+    head, trk = text.split("<trk>", 1)
+    trk, tail = ("<trk>" + trk).rsplit("</trk>", 1)
+    twice = tmp_path / "twice.gpx"
+    twice.write_text(head + trk + "</trk>" + trk + "</trk>" + tail, encoding="utf-8")
+    fixes = read_track_fixes(twice)
+    assert fixes.time_ns.tolist() == read_track_fixes(GPX / "around-visnjan-with-car.gpx"
+                                                      ).time_ns.tolist()
+    assert fixes.notes[0].startswith("note: 104 GPX point(s) written twice (same time and "
+                                     "position) read once: track 2 segment 1 point 1 repeats "
+                                     "track 1 segment 1 point 1;")
+    moved = tmp_path / "moved.gpx"
+    moved.write_text(head + trk + "</trk>" + trk.replace('lat="45.', 'lat="46.') + "</trk>"
+                     + tail, encoding="utf-8")
+    with pytest.raises(MeasurementFileError) as info:
+        read_track_fixes(moved)
+    first = info.value.problems[0]
+    assert first.startswith("track 2 segment 1 point 1: two different positions at "
+                            "2020-12-18T06:15:50Z: track 1 segment 1 point 1 (lat 45.")
+    assert "and track 2 segment 1 point 1 (lat 46." in first
 
 
 def test_import_nmea_takes_the_track_of_the_command_line_with_a_mapping_without_one(tmp_path):

@@ -23,6 +23,7 @@ from .errors import NOTES_SEPARATOR, READER_NOTES_KEY, MeasurementFileError, ref
 from .formats import Format, register_format
 from .logs import (
     KNOT,
+    LATEST_NS,
     Fixes,
     LocalFrame,
     checked_rows,
@@ -443,22 +444,59 @@ def read_gpx_fixes(path: str | os.PathLike[str]) -> Fixes:
             gpx = gpxpy.parse(f)
     except (gpxpy.gpx.GPXException, ValueError) as e:
         raise MeasurementFileError(path, [f"not a readable GPX file ({e})"]) from None
-    points: list[Any] = [p for t in gpx.tracks for s in t.segments for p in s.points]
+    points: list[tuple[Any, str]] = [
+        (p, f"track {i + 1} segment {j + 1} point {k + 1}") for i, t in enumerate(gpx.tracks)
+        for j, s in enumerate(t.segments) for k, p in enumerate(s.points)]
     if not points:
-        points = [p for r in gpx.routes for p in r.points] + list(gpx.waypoints)
-    timed = [p for p in points if p.time is not None]
+        points = [(p, f"route {i + 1} point {k + 1}") for i, r in enumerate(gpx.routes)
+                  for k, p in enumerate(r.points)]
+        points += [(p, f"waypoint {k + 1}") for k, p in enumerate(gpx.waypoints)]
+    timed = sorted(((p, at) for p, at in points if p.time is not None),
+                   key=lambda item: _ns(item[0].time))
     if not timed:
         raise MeasurementFileError(path, [
             f"no GPX point with a time ({len(points)} points without <time>): a sensor track "
             "needs clock times to be joined to the measurements"])
     notes = ([f"note: {len(points) - len(timed)} of {len(points)} GPX points have no <time> "
               "and are left out"] if len(timed) < len(points) else [])
-    time_ns = np.array([_ns(p.time) for p in timed], np.int64)
+    timed = _one_point_a_time(path, timed, notes)
+    time_ns = np.array([_ns(p.time) for p, _ in timed], np.int64)
     alt, filled = fill_altitudes(time_ns, np.array(
-        [np.nan if p.elevation is None else p.elevation for p in timed], float), "no <ele>")
-    fixes = Fixes(time_ns, np.array([p.latitude for p in timed], float),
-                  np.array([p.longitude for p in timed], float), alt, notes=notes + filled)
-    return fixes.sorted()
+        [np.nan if p.elevation is None else p.elevation for p, _ in timed], float), "no <ele>")
+    return Fixes(time_ns, np.array([p.latitude for p, _ in timed], float),
+                 np.array([p.longitude for p, _ in timed], float), alt, notes=notes + filled)
+
+
+def _gpx_position(p: Any) -> str:
+    ele = "" if p.elevation is None else f", ele {p.elevation!r} m"
+    return f"lat {p.latitude!r}, lon {p.longitude!r}{ele}"
+
+
+def _one_point_a_time(path: Path, timed: list[tuple[Any, str]], notes: list[str]
+                      ) -> list[tuple[Any, str]]:
+    """Keep one of each point written twice; refuse two different positions at one time."""
+    kept: list[tuple[Any, str]] = []
+    repeats: list[str] = []
+    problems: list[str] = []
+    for p, at in timed:  # (a time no clock gives, 1901 say, is refused by fix_problems)
+        if kept and _ns(kept[-1][0].time) == _ns(p.time) and 0 <= _ns(p.time) < LATEST_NS:
+            q, first = kept[-1]
+            if (q.latitude, q.longitude, q.elevation) == (p.latitude, p.longitude, p.elevation):
+                repeats.append(f"{at} repeats {first}")
+            else:
+                problems.append(f"{at}: two different positions at {iso_utc(_ns(p.time))}: "
+                                f"{first} ({_gpx_position(q)}) and {at} ({_gpx_position(p)}); "
+                                "a sensor is at one place at a time (two recordings in one "
+                                "file? give the one of the sensor that measured)")
+            continue
+        kept.append((p, at))
+    if problems:
+        raise MeasurementFileError(path, problems)
+    if repeats:
+        more = " and more" if len(repeats) > 5 else ""
+        notes.append(f"note: {len(repeats)} GPX point(s) written twice (same time and position) "
+                     f"read once: {'; '.join(repeats[:5])}{more}")
+    return kept
 
 
 #: The NMEA sentences read, with the fewest fields of a whole one (NMEA 0183 2.x; a sentence
