@@ -173,3 +173,9 @@ def test_import_refuses_a_track_whose_suffix_says_the_other_format(tmp_path):
         assert result.exit_code == 2
         assert f"use tma import {other}" in " ".join(result.output.split())
         assert not (folder / f"{fmt}.parquet").exists()
+    # a folder or a missing file given as the track: said as such, not as the other format
+    none = tmp_path / "none"
+    for track, said in ((tmp_path, f"{tmp_path}: is a folder"), (none, f"{none}: no such file")):
+        result = run("import", "gpx", track, folder / "bearings.csv", "--mapping",
+                     folder / "bearings.toml", "-o", folder / "gpx.parquet")
+        assert result.exit_code == 2 and said in result.output, result.output

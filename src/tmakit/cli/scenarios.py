@@ -249,7 +249,7 @@ EXAMPLE_FILES = ("contact.rep", "drone.csv", "drone.toml", "own.gpx", "own.nmea"
 def _check_track_suffix(fmt: str, track: Path) -> None:
     """Refuse a track whose suffix says the other format (tracks are read by suffix)."""
     is_gpx = track.suffix.lower() == ".gpx"
-    if is_gpx != (fmt == "gpx"):
+    if is_gpx != (fmt == "gpx") and track.is_file():  # a folder or none: the reader says so
         other = "gpx" if is_gpx else "nmea"
         raise fail(f"import {fmt}: the track {track} would be read as "
                    f"{'GPX' if is_gpx else 'NMEA 0183'} (a track is read by its suffix: .gpx "
