@@ -487,7 +487,9 @@ def _one_point_a_time(path: Path, timed: list[tuple[Any, str]], notes: list[str]
                 problems.append(f"{at}: two different positions at {iso_utc(_ns(p.time))}: "
                                 f"{first} ({_gpx_position(q)}) and {at} ({_gpx_position(p)}); "
                                 "a sensor is at one place at a time (two recordings in one "
-                                "file? give the one of the sensor that measured)")
+                                "file? give the one of the sensor that measured; points "
+                                "logged faster than the times' resolution? give the times "
+                                "to a fraction of a second)")
             continue
         kept.append((p, at))
     if problems:
