@@ -203,6 +203,19 @@ def test_no_origin_or_no_answer_is_said(tmp_path):
     assert math.isfinite(result.chi2)
 
 
+def test_an_export_the_data_cannot_place_is_refused_before_the_fit_and_any_output(tmp_path):
+    path = tmp_path / "obs.csv"  # a simulated file: ENU positions, no latitude/longitude
+    tk.write_measurements(tk.load_scenario("bearings-only-2d").simulate(rng=1), path)
+    plot, rep = tmp_path / "fit.png", tmp_path / "s.rep"
+    r = runner.invoke(app, ["estimate", str(path), "--motion", "cv2d", "--plot", str(plot),
+                            "--export", str(rep)])
+    assert r.exit_code == 2
+    assert (f"error: --export {rep}: the measurements have no ENU origin"
+            in " ".join(r.output.split()))
+    assert "ml estimate" not in r.output  # said before the fit, and nothing written
+    assert not plot.exists() and not rep.exists()
+
+
 def test_estimate_html_writes_the_page(contact, tmp_path):
     folder = contact[0]
     out = tmp_path / "page.html"

@@ -159,6 +159,7 @@ def estimate(
     meas, record_legs = read_leg_window(files, parse_origin(origin), options, (start, stop),
                                         leg, snap, turn_rate)
     meas = grouped_by_kind(meas)  # the last reference to the file's order: freed
+    check_exports(more.exports, meas)
     fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
                  model, (exact, criterion, alpha, accelerations), dim, sensor_position_sigma)
     result, meas = fit_leg_by_leg(meas, fit, (keep_turn_cuts, settle, turn_rate), as_json,
@@ -736,6 +737,15 @@ def check_solution_outputs(html: Path | None, exports: list[Path] | None, force:
                            every=every, range_bearing=range_bearing, name=name, force=force,
                            title=" + ".join(map(str, files or inputs)),
                            options=dict(options or {}))
+
+
+def check_exports(exports: list[Path], meas: Any) -> None:
+    """Refuse, before the fit, an export the data cannot place (no origin, no clock times)."""
+    from ..io.solution_files import check_solution_data
+
+    for path in exports:
+        with failing("--export "):
+            check_solution_data(path, meas)
 
 
 def write_solution_outputs(meas: Any, result: Any, outputs: SolutionOutputs, answers: bool,

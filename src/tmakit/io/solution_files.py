@@ -22,8 +22,8 @@ from ..results.context import clock_time, origin_of
 from .logs import YARD
 from .tables import atomic_write
 
-__all__ = ["SOLUTION_SUFFIXES", "YARD", "geojson_document", "rep_lines", "solution_answers",
-           "write_solution"]
+__all__ = ["SOLUTION_SUFFIXES", "YARD", "check_solution_data", "geojson_document", "rep_lines",
+           "solution_answers", "write_solution"]
 
 #: The suffixes a solution is written to, by format.
 SOLUTION_SUFFIXES = (".rep", ".geojson", ".kml")
@@ -177,6 +177,28 @@ def _write_kml(path: Path, answers: list[Answer], origin: tuple[float, float, fl
     path.write_text(kml.kml(), encoding="utf-8")
 
 
+def check_solution_data(path: str | Path, meas: MeasurementSet) -> None:
+    """Raise ValueError if ``meas`` cannot place a solution written to ``path`` on the Earth.
+
+    Parameters
+    ----------
+    path : str or Path
+        The solution file (``.rep`` needs clock times too).
+    meas : MeasurementSet
+
+    Raises
+    ------
+    ValueError
+        No ENU origin (latitude/longitude), or a ``.rep`` without a time origin.
+    """
+    if origin_of(meas) is None:
+        raise ValueError(f"{path}: the measurements have no ENU origin (latitude/longitude): "
+                         "give --origin LAT,LON[,ALT]")
+    if Path(path).suffix.lower() == ".rep" and clock_time(meas, 0.0) is None:
+        raise ValueError(f"{path}: Debrief lines need clock times and the measurements have "
+                         "no time origin")
+
+
 def write_solution(path: str | Path, meas: MeasurementSet, result: EstimateResult, *,
                    every: float = 60.0, sensor: str | None = None, range_bearing: bool = False,
                    name: str | None = None, level: float = 0.95, force: bool = False) -> Path:
@@ -188,13 +210,9 @@ def write_solution(path: str | Path, meas: MeasurementSet, result: EstimateResul
                          f"expected {', '.join(SOLUTION_SUFFIXES)}")
     if result.status != "converged" or not np.all(np.isfinite(result.estimate)):
         raise ValueError(f"{path}: not written: the estimate is {result.status}, no solution")
+    check_solution_data(path, meas)
     origin = origin_of(meas)
-    if origin is None:
-        raise ValueError(f"{path}: the measurements have no ENU origin (latitude/longitude): "
-                         "give --origin LAT,LON[,ALT]")
-    if suffix == ".rep" and clock_time(meas, 0.0) is None:
-        raise ValueError(f"{path}: Debrief lines need clock times and the measurements have "
-                         "no time origin")
+    assert origin is not None
     answers = solution_answers(meas, result, every, sensor, level)
     if any(a.geodetic is None or None in a.geodetic[:2] for a in answers):
         raise ValueError(f"{path}: not written: the data do not determine the position")
