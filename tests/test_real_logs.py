@@ -327,6 +327,20 @@ def test_nmea_bad_checksum_and_times_outside_the_track_name_the_line(tmp_path):
         tk.read_measurements(gpx)
 
 
+def test_a_log_wholly_outside_its_track_is_one_problem_naming_both_spans(tmp_path):
+    gpx, _, log, mapping, _ = boat_files(tmp_path)
+    rows = log.read_text().splitlines()  # the log's clock two hours ahead of the track's
+    log.write_text("\n".join([rows[0]] + [f"{float(r.split(',')[0]) + 7200:.3f},"
+                                          f"{r.split(',')[1]}" for r in rows[1:]]) + "\n")
+    with pytest.raises(MeasurementFileError) as info:
+        tk.read_measurements(gpx, measurements=log, mapping=mapping)
+    assert info.value.problems == [
+        "every measurement time (2026-05-04T11:30:10Z to 2026-05-04T11:49:50Z, 119 rows) is "
+        "outside the own track (2026-05-04T09:30:00Z to 2026-05-04T09:50:00Z): is the log's "
+        "clock local time read as UTC (give the zone in the times, e.g. "
+        "2026-05-04T11:30:00+02:00), or the track of another day?"]
+
+
 def test_surface_rule_in_tmakits_own_lat_lon_files(tmp_path):
     rows = ["0,a,bearing,10,1,48.0,11.5,3", "60,a,bearing,11,1,48.18,11.5,-2"]  # 20 km north
     text = "time,sensor,kind,value,sigma,sensor_lat,sensor_lon,sensor_alt\n" + "\n".join(rows)

@@ -247,9 +247,17 @@ def _track_states(tab: _Table, track: Fixes, frame: LocalFrame, t: NDArray[np.fl
     if track.heading is not None and tab.heading is None:
         tab.heading = interpolate_heading(tf, track.heading, t)
     span = f"{iso_utc(int(track.time_ns[0]))} to {iso_utc(int(track.time_ns[-1]))}"
-    for k in np.flatnonzero(outside)[:25]:
-        tab.problems.append(f"{tab.where(int(k), 'time')}: time {iso_utc(t0)} + "
-                            f"{t[k]:g} s is outside the own track ({span})")
+    out = np.flatnonzero(outside)
+    if out.size == t.size:  # none inside: a clock of another zone or day, not a few rows
+        tab.problems.append(
+            f"every measurement time ({iso_utc(t0 + round(float(t.min()) * 1e9))} to "
+            f"{iso_utc(t0 + round(float(t.max()) * 1e9))}, {t.size} rows) is outside the own "
+            f"track ({span}): is the log's clock local time read as UTC (give the zone in the "
+            "times, e.g. 2026-05-04T11:30:00+02:00), or the track of another day?")
+    for k in out[:25] if out.size < t.size else []:
+        tab.problems.append(f"{tab.where(int(k), 'time')}: time "
+                            f"{iso_utc(t0 + round(float(t[k]) * 1e9))} is outside the own "
+                            f"track ({span})")
     tab.fail()
     _gap_warning(track, tf, t, t0)
     return states
