@@ -379,3 +379,11 @@ def test_track_json_carries_trust_warning_when_the_innovations_are_inconsistent(
     bad = json.loads(result.output.splitlines()[0])
     assert bad["trust"] == "warning"
     assert bad["trust_reasons"][0]["code"] == "inconsistent-innovations"
+
+
+def test_a_negative_seed_is_refused_naming_the_option(tmp_path):
+    path = tmp_path / "obs.csv"
+    tk.write_measurements(tk.load_scenario("bearings-only-2d").simulate(rng=1), path)
+    result = run("track", path, "--filter", "pf", "--particles", "500", "--seed", "-1")
+    assert result.exit_code == 2
+    assert "error: --seed -1: expected a whole number >= 0" in result.output

@@ -708,6 +708,8 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
                        f"{filter_name}")
     if ellipses < 0 or rows < 1:
         raise fail("--ellipses must be 0 or more and --rows 1 or more")
+    if seed is not None and seed < 0:  # numpy's words would not name the option
+        raise fail(f"--seed {seed}: expected a whole number >= 0")
     return output, plot
 
 
