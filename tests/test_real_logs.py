@@ -341,6 +341,17 @@ def test_a_log_wholly_outside_its_track_is_one_problem_naming_both_spans(tmp_pat
         "2026-05-04T11:30:00+02:00), or the track of another day?"]
 
 
+def test_tmakits_own_file_given_a_column_mapping_is_said_to_be_one(tmp_path):
+    _, _, _, mapping, _ = boat_files(tmp_path)
+    own = tmp_path / "obs.csv"
+    tk.write_measurements(tk.load_scenario("bearings-only-2d").simulate(rng=1), own)
+    with pytest.raises(MeasurementFileError) as info:  # pandas' tokenizer error before
+        tk.read_measurements(own, format="wide", mapping=mapping)
+    assert info.value.problems == [
+        "is tmakit's own measurement file (its first line says so), not a wide log: read it "
+        "without --mapping, --map or --format"]
+
+
 def test_surface_rule_in_tmakits_own_lat_lon_files(tmp_path):
     rows = ["0,a,bearing,10,1,48.0,11.5,3", "60,a,bearing,11,1,48.18,11.5,-2"]  # 20 km north
     text = "time,sensor,kind,value,sigma,sensor_lat,sensor_lon,sensor_alt\n" + "\n".join(rows)

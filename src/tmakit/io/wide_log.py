@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from .. import rules
 from ..data import MeasurementSet
 from ..measurements import KINDS
+from .checker import FORMAT_LINE
 from .errors import NOTES_SEPARATOR, READER_NOTES_KEY, MeasurementFileError, refuse_unreadable
 from .formats import Format, register_format
 from .logs import (
@@ -98,6 +99,11 @@ def _load(path: Path) -> _Table:
             return _Table(path, pd.read_parquet(path).reset_index(drop=True), None)
         except (OSError, ValueError) as e:
             raise MeasurementFileError(path, [f"cannot be read as Parquet ({e})"]) from None
+    with open(path, encoding="utf-8-sig", errors="replace") as f:
+        if f.readline().startswith(FORMAT_LINE):
+            raise MeasurementFileError(path, [
+                "is tmakit's own measurement file (its first line says so), not a wide log: "
+                "read it without --mapping, --map or --format"])
     try:
         sep = csv_separator(path)
         frame = pd.read_csv(path, dtype=str, keep_default_na=False, skip_blank_lines=False,
