@@ -387,3 +387,12 @@ def test_a_negative_seed_is_refused_naming_the_option(tmp_path):
     result = run("track", path, "--filter", "pf", "--particles", "500", "--seed", "-1")
     assert result.exit_code == 2
     assert "error: --seed -1: expected a whole number >= 0" in result.output
+
+
+def test_a_height_prior_on_a_2d_track_is_refused_not_dropped(tmp_path):
+    path = tmp_path / "obs.csv"
+    tk.write_measurements(tk.load_scenario("bearings-only-2d").simulate(rng=1), path)
+    result = run("track", path, "--height-prior", "0:1000")
+    assert result.exit_code == 2
+    assert ("error: --height-prior: the emitter's height belongs to a 3-D track, and this "
+            "track is 2-D (--dim 3 to track in 3-D)") in " ".join(result.output.split())

@@ -219,6 +219,10 @@ def track_files(paths: list[Path], reading: tuple[Any, int | None, dict[str, Any
     try:
         d = tracking.filter_dim(meas, dim)
         meas = sides_for_filter(meas, d)
+        start = keywords.get("bearing_prior")
+        if d == 2 and start is not None and "height" in start.given:
+            raise fail("--height-prior: the emitter's height belongs to a 3-D track, and this "
+                       "track is 2-D (--dim 3 to track in 3-D)")
         q_axes = tracking.process_noise(parse_q(q[0], d), d)
         density = tracking.noise_density(parse_q(q[1], d, "--q-density"), d)
     except tracking.TrackingError as e:
