@@ -396,3 +396,16 @@ def test_a_height_prior_on_a_2d_track_is_refused_not_dropped(tmp_path):
     assert result.exit_code == 2
     assert ("error: --height-prior: the emitter's height belongs to a 3-D track, and this "
             "track is 2-D (--dim 3 to track in 3-D)") in " ".join(result.output.split())
+
+
+def test_model_options_the_data_leave_idle_are_noted(tmp_path):
+    path = tmp_path / "obs.csv"  # bearings only: no frequency, no power
+    tk.write_measurements(tk.load_scenario("bearings-only-2d").simulate(rng=1), path)
+    for command in (["estimate", path, "--motion", "cv2d"], ["track", path, "--rows", "1"]):
+        result = run(*command, "--drift", "--free-exponent")
+        assert result.exit_code == 0, result.output
+        said = " ".join(result.output.split())
+        assert ("note: --drift models the frequency measurements, and these data have none"
+                in said)
+        assert ("note: --free-exponent models the power measurements, and these data have none"
+                in said)

@@ -184,6 +184,18 @@ def model_options(drift: bool, free_exponent: bool, propagation_speed: float | N
             "power": {"exponent": None if free_exponent else 2.0}}
 
 
+def note_unused_model_options(meas: Any, options: dict[str, dict[str, object]]) -> None:
+    """Note each of --drift, --free-exponent, --propagation-speed that the data leave idle."""
+    frequency, power = options["frequency"], options["power"]
+    for given, option, kind in ((frequency["drift"], "--drift", "frequency"),
+                                ("propagation_speed" in frequency, "--propagation-speed",
+                                 "frequency"),
+                                (power["exponent"] is None, "--free-exponent", "power")):
+        if given and kind not in meas.kinds:
+            err.print(f"note: {option} models the {kind} measurements, and these data have "
+                      "none", soft_wrap=True)
+
+
 # Options shared by the commands that fit or bound a motion model.
 MotionOption = Annotated[str | None, typer.Option(
     help="cv2d, cv3d, static2d, static3d, curvilinear[:M]")]

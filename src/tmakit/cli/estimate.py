@@ -30,6 +30,7 @@ from .common import (
     file_ref_time,
     model_options,
     motion_or_fail,
+    note_unused_model_options,
     out,
     parse_assignments,
     parse_origin,
@@ -160,6 +161,7 @@ def estimate(
                                         leg, snap, turn_rate)
     meas = grouped_by_kind(meas)  # the last reference to the file's order: freed
     check_exports(more.exports, meas)
+    note_unused_model_options(meas, model)
     fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
                  model, (exact, criterion, alpha, accelerations), dim, sensor_position_sigma)
     result, meas = fit_leg_by_leg(meas, fit, (keep_turn_cuts, settle, turn_rate), as_json,

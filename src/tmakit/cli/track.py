@@ -29,6 +29,7 @@ from .common import (
     fail,
     failing,
     model_options,
+    note_unused_model_options,
     out,
     parse_assignments,
     parse_origin,
@@ -216,6 +217,8 @@ def track_files(paths: list[Path], reading: tuple[Any, int | None, dict[str, Any
 
     origin, dim, options = reading
     meas = read_or_fail(paths, origin, dim=dim, notes=notes, shown_as=shown_as, **options)
+    if notes:
+        note_unused_model_options(meas, keywords["options"])
     try:
         d = tracking.filter_dim(meas, dim)
         meas = sides_for_filter(meas, d)
