@@ -155,6 +155,16 @@ def test_a_real_gpx_whose_clock_reads_1901_is_refused_for_its_times():
     assert "point at 1901-12-13T20:45:52.207Z, time: expected a date between 1970 and 2200" in said
 
 
+def test_a_gpx_without_any_point_says_so(tmp_path):
+    path = tmp_path / "empty.gpx"  # as gpxpy's default_schema_locations.gpx: metadata only
+    path.write_text('<?xml version="1.0"?><gpx version="1.1" creator="x" '
+                    'xmlns="http://www.topografix.com/GPX/1/1"><metadata/></gpx>')
+    with pytest.raises(MeasurementFileError) as info:
+        read_track_fixes(path)
+    assert info.value.problems == [
+        "no GPX point (no <trkpt>, <rtept> or <wpt>): a sensor track needs timed points"]
+
+
 def test_gpx_points_at_one_time_are_read_once_when_equal_and_refused_when_apart(tmp_path):
     # the real car track written twice in one file (two <trk>), then with the second copy moved
     text = (GPX / "around-visnjan-with-car.gpx").read_text(encoding="utf-8")

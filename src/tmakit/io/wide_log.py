@@ -470,7 +470,8 @@ def read_gpx_fixes(path: str | os.PathLike[str]) -> Fixes:
     if not timed:
         raise MeasurementFileError(path, [
             f"no GPX point with a time ({len(points)} points without <time>): a sensor track "
-            "needs clock times to be joined to the measurements"])
+            "needs clock times to be joined to the measurements" if points else
+            "no GPX point (no <trkpt>, <rtept> or <wpt>): a sensor track needs timed points"])
     notes = ([f"note: {len(points) - len(timed)} of {len(points)} GPX points have no <time> "
               "and are left out"] if len(timed) < len(points) else [])
     timed = _one_point_a_time(path, timed, notes)
