@@ -633,7 +633,7 @@ def print_legs(meas: Any, result: Any, units: str) -> None:
             u = legs["turns"][k]
             lines.append(f"  turn: {_span(meas, u)}, {u['change_deg']:+.0f} deg")
     if legs and legs["legs"]:  # a path that starts or ends turning (a drone circling)
-        t = meas.time[meas.sensor_mask(legs["sensor"])]
+        t = meas.time  # (the legs are those of every sensor of the one own ship)
         first, last = legs["legs"][0]["start"], legs["legs"][-1]["stop"]
         if float(t.min()) < first:
             lines.insert(1, f"  turning: {_span(meas, {'start': float(t.min()), 'stop': first})}"
