@@ -42,6 +42,15 @@ def test_the_legs_printed_say_a_path_that_ends_turning_up_to_the_data_end(tmp_pa
     assert legs[1].startswith("  turning: ")
 
 
+def test_a_range_of_tens_of_kilometres_is_printed_in_whole_metres(tmp_path):
+    folder = examples(tmp_path / "ex")  # the contact at 28.7 km at the last bearing
+    result = run("estimate", folder / "contact.rep", "--motion", "cv2d")
+    assert result.exit_code == 0, result.output
+    line = next(x for x in result.output.splitlines() if "range from OWNSHIP" in x)
+    value = line.split("│")[2].strip()
+    assert value.isdigit() and 28_000 < int(value) < 29_500, line
+
+
 def test_examples_and_demo_into_a_file_or_under_one_are_refused_naming_the_folder(tmp_path):
     a_file = tmp_path / "obs.csv"
     a_file.write_text("mine\n")

@@ -453,7 +453,9 @@ def answers_table(a: Any, units: str, title: str) -> Table:
         row("course (true)", a.course_deg, a.course_std_deg, ".1f", "deg")
         row("speed", a.speed, a.speed_std, ".3g", sp_unit, sp)
     if a.sensor is not None:
-        row(f"range from {a.sensor}", a.range_m, a.range_std, ".4g", rg_unit, rg)
+        whole = a.range_m is not None and a.range_m / rg >= 1e4  # 28720 m, not 2.872e+04
+        row(f"range from {a.sensor}", a.range_m, a.range_std, ".0f" if whole else ".4g",
+            rg_unit, rg)
         row(f"bearing from {a.sensor} (true)", a.bearing_deg, a.bearing_std_deg, ".2f", "deg")
     e = a.ellipse
     if e is None:
