@@ -155,6 +155,34 @@ def test_a_real_gpx_whose_clock_reads_1901_is_refused_for_its_times():
     assert "point at 1901-12-13T20:45:52.207Z, time: expected a date between 1970 and 2200" in said
 
 
+def test_a_real_car_track_with_bearings_fits_and_its_stops_are_legs_without_a_heading(
+        tmp_path):
+    # gpxpy's car drive as the own track; bearings every 5 s to a point 3.5 km away, 1 deg noise
+    track = GPX / "around-visnjan-with-car.gpx"
+    fixes = read_track_fixes(track)
+    t = np.arange(fixes.time_ns[0] / 1e9 + 1, fixes.time_ns[-1] / 1e9 - 1, 5.0)
+    lat, lon = (np.interp(t, fixes.time_ns / 1e9, v) for v in (fixes.lat, fixes.lon))
+    e, n, _ = tk.geodetic_to_enu(lat, lon, np.zeros(t.size), (45.3035, 13.7342, 0.0))
+    noise = np.random.default_rng(3).normal(0.0, 1.0, t.size)
+    bearing = (np.degrees(np.arctan2(-e, -n)) + noise) % 360.0
+    log = tmp_path / "bearings.csv"
+    log.write_text("epoch_s,bearing_deg\n" + "".join(
+        f"{a:.3f},{b:.3f}\n" for a, b in zip(t, bearing, strict=True)))
+    mapping = tmp_path / "car.toml"
+    mapping.write_text(f'time = "epoch_s"\nsensor = "car"\ntrack = "{track}"\n'
+                       '[[measurement]]\ncolumn = "bearing_deg"\nkind = "bearing"\n'
+                       'unit = "deg"\nsigma = 1.0\n')
+    result = CliRunner().invoke(app, ["estimate", str(log), "--mapping", str(mapping),
+                                      "--motion", "static2d", "--json"])
+    assert result.exit_code == 0, result.output
+    answer = json.loads(result.stdout)["answer"]
+    assert abs(answer["position"]["lat_deg"] - 45.3035) * 111e3 < 300
+    text = CliRunner().invoke(app, ["estimate", str(log), "--mapping", str(mapping),
+                                    "--motion", "static2d"]).output
+    stops = [x for x in text.splitlines() if x.startswith("  leg ") and "stationary at" in x]
+    assert len(stops) == 2, text  # the car stands still at 06:19:41-06:22:31 and at the end
+
+
 def test_a_gpx_without_any_point_says_so(tmp_path):
     path = tmp_path / "empty.gpx"  # as gpxpy's default_schema_locations.gpx: metadata only
     path.write_text('<?xml version="1.0"?><gpx version="1.1" creator="x" '

@@ -625,12 +625,16 @@ def _span(meas: Any, part: dict[str, Any]) -> str:
 
 def print_legs(meas: Any, result: Any, units: str) -> None:
     """Print the own-ship legs and turns and a manoeuvre fit's contact legs (``extra``)."""
+    from ..results.own_legs import HOLDS_COURSE_SPEED
+
     unit, scale = SPEED_UNITS[units]
     legs, target = result.extra.get("legs"), result.extra.get("contact_legs")
     lines = [f"own-ship legs of {legs['sensor']} ({legs['thresholds']}):"] if legs else []
     for k, leg in enumerate(legs["legs"] if legs else []):
-        lines.append(f"  leg {k + 1}: {_span(meas, leg)}, heading "
-                     f"{leg['course_deg']:.1f} deg at {leg['speed'] / scale:.3g} {unit}")
+        heading = ("stationary" if leg["speed"] < HOLDS_COURSE_SPEED  # its heading is noise
+                   else f"heading {leg['course_deg']:.1f} deg")
+        lines.append(f"  leg {k + 1}: {_span(meas, leg)}, {heading} at "
+                     f"{leg['speed'] / scale:.3g} {unit}")
         if k < len(legs["turns"]):
             u = legs["turns"][k]
             lines.append(f"  turn: {_span(meas, u)}, {u['change_deg']:+.0f} deg")
