@@ -12,6 +12,7 @@ from __future__ import annotations
 import ast
 import re
 import subprocess
+import uuid
 import sys
 import tomllib
 from pathlib import Path
@@ -88,7 +89,8 @@ def test_the_public_modules_have_every_flag_of_strict():
 @pytest.mark.long
 def test_mypy_is_clean_on_the_package_and_strict_on_the_public_modules(tmp_path):
     # settings from pyproject.toml; the cache is the checkout's, as a user's mypy's
-    script = tmp_path / "user_script.py"
+    # a module name of its own each run: mypy's cache keeps a module's path from the run before
+    script = tmp_path / f"user_script_{uuid.uuid4().hex}.py"
     script.write_text(USER_SCRIPT)
     out = subprocess.run([sys.executable, "-m", "mypy", *CONFIG["files"], str(script)],
                          cwd=ROOT, capture_output=True, text=True, check=False)
