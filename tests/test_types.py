@@ -12,9 +12,9 @@ from __future__ import annotations
 import ast
 import re
 import subprocess
-import uuid
 import sys
 import tomllib
+import uuid
 from pathlib import Path
 
 import pytest
