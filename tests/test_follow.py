@@ -182,3 +182,36 @@ def test_a_bad_row_already_written_stops_the_watch_naming_the_users_file(contact
     said = w.proc.stderr.read()
     assert f"{grow}:" in said and "line 251" in said and "cannot change" in said
     assert "tma-follow-" not in said and "waiting" not in said
+
+
+def test_follow_to_ends_the_watch_once_the_data_pass_it(contact, tmp_path):
+    """``--from``/``--to`` with ``--follow``: the stretch is tracked as it comes, and the watch
+    ends (status 0) at the first update whose data pass ``--to``, its track the stretch's."""
+    grow, table = tmp_path / "grow.rep", tmp_path / "track.csv"
+    grow.write_text("".join(contact[:400]))  # up to 09:56:30
+    w = Watch(str(grow), "--interval", "0.05", "--from", "09:40", "--to", "10:05", "-o",
+              str(table))
+    first = w.next_update()
+    assert first.startswith("update 1:")
+    with open(grow, "a") as f:
+        f.write("".join(contact[400:]))
+    # a large append may become visible a page at a time: more than one update may follow
+    assert w.proc.wait(timeout=HANG) == 0
+    assert "the data have passed --to: the window is tracked" in w.rest()
+    stretch = tmp_path / "stretch.csv"
+    r = CliRunner().invoke(app, ["track", str(grow), "--from", "09:40", "--to", "10:05", "-o",
+                                 str(stretch)])
+    assert r.exit_code == 0, r.output
+    pd.testing.assert_frame_equal(pd.read_csv(table), pd.read_csv(stretch))
+
+
+def test_follow_stops_on_a_bad_window(contact, tmp_path):
+    grow = tmp_path / "grow.rep"
+    grow.write_text("".join(contact))
+    for window, message in ((["--from", "noon"], "--from 'noon': expected seconds"),
+                            (["--from", "10:05", "--to", "09:40"], "is after --to 09:40"),
+                            (["--from", "08:00", "--to", "09:00"], "no measurement between")):
+        w = Watch(str(grow), "--interval", "0.05", *window)
+        assert w.proc.wait(timeout=HANG) == 2
+        err = w.proc.stderr.read()
+        assert message in " ".join(err.split()) and "Traceback" not in err

@@ -409,3 +409,53 @@ def test_model_options_the_data_leave_idle_are_noted(tmp_path):
                 in said)
         assert ("note: --free-exponent models the power measurements, and these data have none"
                 in said)
+
+
+def test_track_of_a_window_equals_the_track_of_the_rows_cut_by_hand(obs, tmp_path):
+    """``--from``/``--to`` keep the rows with from <= time <= to, as ``tma estimate``'s do,
+    and the smoothed track (``--smooth``) is the one of those rows only."""
+    meas = tk.read_measurements(obs)
+    cut = tmp_path / "cut.csv"
+    tk.write_measurements(meas.take((meas.time >= 100.0) & (meas.time <= 400.0)), cut)
+    assert 0 < len(tk.read_measurements(cut)) < len(meas)
+    for extra in ([], ["--smooth"]):
+        windowed = run("track", obs, "--json", "--from", "100", "--to", "400", *extra)
+        by_hand = run("track", cut, "--json", *extra)
+        assert windowed.exit_code == 0, windowed.output
+        assert by_hand.exit_code == 0, by_hand.output
+        a, b = json.loads(windowed.stdout), json.loads(by_hand.stdout)
+        assert a["time"] == b["time"] and a["time"][0] >= 100 and a["time"][-1] <= 400
+        assert a == b
+
+
+@pytest.mark.parametrize(("window", "message"), [
+    (["--from", "5000", "--to", "6000"], "--from/--to: no measurement between 5000.0 and "
+                                         "6000.0 s"),
+    (["--from", "400", "--to", "100"], "--from 400 is after --to 100"),
+    (["--from", "noon"], "--from 'noon': expected seconds"),
+    (["--to", "12:30"], "--to '12:30': a clock time needs the file's time origin"),
+])
+def test_track_refuses_a_bad_window_naming_the_option(obs, window, message):
+    r = run("track", obs, *window)
+    assert r.exit_code == 2, r.output
+    assert message in " ".join(r.output.split())
+    assert isinstance(r.exception, SystemExit) and "Traceback" not in r.output
+
+
+def test_track_of_a_debrief_leg_from_a_clock_time():
+    """A Debrief replay from a clock time of the data's day: the reader keeps the cuts from
+    13:58 (the last legs of the ambiguous pair), and the track starts there."""
+    from pathlib import Path
+
+    data = Path(__file__).parent / "data" / "debrief" / "asset_ambig"
+    files = [data / "Ambig_cuts_TA.rep", data / "Ambig_tracks2.rep"]
+    whole = tk.read_measurements(files)
+    leg = tk.read_measurements(files, window=("13:58", None))
+    assert 0 < len(leg) < len(whole)
+    r = run("track", *files, "--from", "13:58", "--json")
+    assert r.exit_code == 0, r.output
+    times = json.loads(r.stdout)["time"]
+    assert times[0] >= float(leg.time.min()) > float(whole.time.min())
+    assert times[-1] == pytest.approx(float(leg.time.max()))
+    late = run("track", *files, "--from", "23:00")
+    assert late.exit_code == 2 and "no cut between 23:00" in " ".join(late.output.split())

@@ -423,6 +423,62 @@ def log_options(paths: list[Path], options: dict[str, Any],
     return options
 
 
+def parse_time(text: str | None, meas: Any, option: str) -> float | None:
+    """Return a time option in seconds: seconds, an ISO-8601 clock time, or ``HH:MM[:SS]``."""
+    if text is None:
+        return None
+    from ..io.logs import seconds_of_time_text
+    from ..results.context import TIME_ORIGIN_KEY
+
+    origin_ns = span = None
+    if (origin := meas.metadata.get(TIME_ORIGIN_KEY)) is not None:
+        import numpy as np
+
+        from ..io.logs import parse_clock_times
+
+        stamps, bad = parse_clock_times([origin])
+        if not bad[0]:
+            origin_ns = int(stamps[0])
+            if len(meas):
+                span = tuple(origin_ns + round(float(f(meas.time)) * 1e9) for f in (np.min, np.max))
+    with failing():
+        return seconds_of_time_text(text, option, origin_ns, span)  # type: ignore[arg-type]
+
+
+def window_times(meas: Any, start: str | None, stop: str | None) -> tuple[float | None,
+                                                                        float | None]:
+    """Parse ``--from`` and ``--to`` (seconds, or None), refusing a window that ends first."""
+    t_from, t_to = parse_time(start, meas, "--from"), parse_time(stop, meas, "--to")
+    if t_from is not None and t_to is not None and t_from > t_to:
+        raise fail(f"--from {start} is after --to {stop} ({t_from:g} s > {t_to:g} s): give the "
+                   "leg's start first")
+    return t_from, t_to
+
+
+def select_window(meas: Any, start: str | None, stop: str | None) -> Any:
+    """Return the rows with ``--from <= time <= --to`` (one leg), refusing an empty window."""
+    t_from, t_to = window_times(meas, start, stop)
+    if t_from is None and t_to is None:
+        return meas
+    keep = ((meas.time >= (t_from if t_from is not None else -float("inf")))
+            & (meas.time <= (t_to if t_to is not None else float("inf"))))
+    if int(keep.sum()) == 0:
+        raise fail(f"--from/--to: no measurement between {t_from} and {t_to} s (the file "
+                   f"covers {meas.time.min():g} .. {meas.time.max():g} s)")
+    return meas.take(keep)
+
+
+def read_window(paths: list[Path], origin: Any, window: tuple[str | None, str | None],
+                **options: Any) -> Any:
+    """Read the files and keep ``--from``/``--to`` (a replay's reader applies it first)."""
+    return select_window(read_or_fail(paths, origin, window=window, **options), *window)
+
+
+def window_help(purpose: str, end: str) -> str:
+    """Help of ``--from`` (``end`` "first") or ``--to`` ("last"), led by what the window is for."""
+    return f"{purpose}: {end} time (seconds, a UTC clock time, or HH:MM[:SS] on the data's day)"
+
+
 #: Suffixes of pictures (matplotlib's formats that tmakit promises).
 PICTURE_SUFFIXES = (".png", ".pdf", ".svg")
 #: Suffixes of tables and measurement files (CSV, Parquet).

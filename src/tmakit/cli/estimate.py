@@ -34,10 +34,14 @@ from .common import (
     out,
     parse_assignments,
     parse_origin,
+    parse_time,
     print_wide,
     read_or_fail,
+    read_window,
     reader_options,
     reads_logs,
+    select_window,
+    window_help,
     write_picture,
 )
 
@@ -58,11 +62,8 @@ AccelerationsOption = Annotated[str | None, typer.Option(
     help="curvilinear: select (default: hold at zero the accelerations the data do not need, "
          "by the same criterion) or all")]
 FromOption = Annotated[str | None, typer.Option(
-    "--from", help="solve one leg: first time (seconds, a UTC clock time, or HH:MM[:SS] on "
-                   "the data's day)")]
-ToOption = Annotated[str | None, typer.Option(
-    "--to", help="solve one leg: last time (seconds, a UTC clock time, or HH:MM[:SS] on "
-                 "the data's day)")]
+    "--from", help=window_help("solve one leg", "first"))]
+ToOption = Annotated[str | None, typer.Option("--to", help=window_help("solve one leg", "last"))]
 PlotOption = Annotated[Path | None, typer.Option(
     help="draw the solution: geometry, bearing lines, ellipses, residuals (PNG, PDF, SVG)")]
 
@@ -186,8 +187,7 @@ def read_leg_window(files: list[Path], origin: Any, options: dict[str, Any],
     """Read the files and keep ``--from``/``--to``, ``--leg N`` or the snapped window."""
     start, stop = window
     if leg is None and not snap:  # a replay's window is applied before its reader's checks
-        return select_window(read_or_fail(files, origin, window=window, **options), start,
-                             stop), None
+        return read_window(files, origin, window, **options), None
     meas = read_or_fail(files, origin, window=(None, None), **options)
     start, stop, legs = leg_window(meas, leg, start, stop, snap, turn_rate)
     return select_window(meas, start, stop), legs
@@ -380,44 +380,6 @@ def check_units(units: str) -> None:
     """Refuse an unknown ``--units``."""
     if units not in SPEED_UNITS:
         raise fail(f"--units {units!r}: expected si or nautical")
-
-
-def parse_time(text: str | None, meas: Any, option: str) -> float | None:
-    """Return a time option in seconds: seconds, an ISO-8601 clock time, or ``HH:MM[:SS]``."""
-    if text is None:
-        return None
-    from ..io.logs import seconds_of_time_text
-    from ..results.context import TIME_ORIGIN_KEY
-
-    origin_ns = span = None
-    if (origin := meas.metadata.get(TIME_ORIGIN_KEY)) is not None:
-        import numpy as np
-
-        from ..io.logs import parse_clock_times
-
-        stamps, bad = parse_clock_times([origin])
-        if not bad[0]:
-            origin_ns = int(stamps[0])
-            if len(meas):
-                span = tuple(origin_ns + round(float(f(meas.time)) * 1e9) for f in (np.min, np.max))
-    with failing():
-        return seconds_of_time_text(text, option, origin_ns, span)  # type: ignore[arg-type]
-
-
-def select_window(meas: Any, start: str | None, stop: str | None) -> Any:
-    """Return the rows with ``--from <= time <= --to`` (one leg), refusing an empty window."""
-    t_from, t_to = parse_time(start, meas, "--from"), parse_time(stop, meas, "--to")
-    if t_from is None and t_to is None:
-        return meas
-    if t_from is not None and t_to is not None and t_from > t_to:
-        raise fail(f"--from {start} is after --to {stop} ({t_from:g} s > {t_to:g} s): give the "
-                   "leg's start first")
-    keep = ((meas.time >= (t_from if t_from is not None else -float("inf")))
-            & (meas.time <= (t_to if t_to is not None else float("inf"))))
-    if int(keep.sum()) == 0:
-        raise fail(f"--from/--to: no measurement between {t_from} and {t_to} s (the file "
-                   f"covers {meas.time.min():g} .. {meas.time.max():g} s)")
-    return meas.take(keep)
 
 
 def _num(v: float | None, fmt: str, scale: float = 1.0) -> str:

@@ -35,8 +35,12 @@ from .common import (
     parse_origin,
     print_wide,
     read_or_fail,
+    read_window,
     reader_options,
     reads_logs,
+    select_window,
+    window_help,
+    window_times,
     write_picture,
 )
 from .estimate import (
@@ -115,6 +119,15 @@ IntervalOption = Annotated[float, typer.Option(
     metavar="SECONDS", help="--follow: seconds between looks at the file")]
 MaxUpdatesOption = Annotated[int | None, typer.Option(
     metavar="N", help="--follow: stop after N updates")]
+FromOption = Annotated[str | None, typer.Option(
+    "--from", help=window_help("track one stretch", "first"))]
+ToOption = Annotated[str | None, typer.Option(
+    "--to", help=window_help("track one stretch", "last") + "; --follow stops once the data "
+                                                             "pass it")]
+
+
+class FollowEnded(Exception):
+    """``--follow`` with ``--to``: the data have passed the window's end, which is tracked."""
 
 
 @reads_logs(after="origin")
@@ -161,6 +174,7 @@ def track(
     sensor: SensorOption = None, units: UnitsOption = "si",
     html: HtmlOption = None, follow: FollowOption = False,
     interval: IntervalOption = 1.0, max_updates: MaxUpdatesOption = None,
+    start: FromOption = None, stop: ToOption = None,
     force: ForceOption = False, *, logs: dict[str, Any],
 ) -> None:
     """Track the emitter with a recursive filter: state and covariance after every update.
@@ -176,7 +190,8 @@ def track(
     page = check_solution_outputs(html, None, force, [*files], taken=[plot]).html
     reading = (parse_origin(origin), dim, reader_options(**logs))
     options = model_options(drift, free_exponent, propagation_speed)
-    tracked = partial(track_files, reading=reading, q=(q, q_density), filter_name=filter_name,
+    tracked = partial(track_files, reading=reading, window=(start, stop), q=(q, q_density),
+                      filter_name=filter_name,
                       smooth=(smooth, lag, sums), keywords=start_keywords(
                           (prior, prior_std, nuisance, prior_time),
                           (range_prior, speed_prior, height_prior), init_window, start_std,
@@ -187,7 +202,7 @@ def track(
                    force, as_json, sensor, units, options)
     if follow:
         return watch(list(files), logs["format"], update, interval, max_updates, update.say)
-    meas, tr, truth = tracked(list(files))
+    meas, tr, truth, _ = tracked(list(files))
     report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units,
                  sums)
     update.write(meas, tr, truth, force)
@@ -209,14 +224,23 @@ def start_keywords(prior: tuple[str | None, str | None, str | None, float | None
 
 
 def track_files(paths: list[Path], reading: tuple[Any, int | None, dict[str, Any]],
-                q: tuple[str, str], filter_name: str, smooth: tuple[bool, int | None, bool],
-                keywords: dict[str, Any], notes: bool = True,
-                shown_as: dict[Path, Path] | None = None) -> tuple[Any, Any, Any]:
-    """Read the files and track the emitter: the command's work on the data."""
+                window: tuple[str | None, str | None], q: tuple[str, str], filter_name: str,
+                smooth: tuple[bool, int | None, bool], keywords: dict[str, Any],
+                notes: bool = True,
+                shown_as: dict[Path, Path] | None = None) -> tuple[Any, Any, Any, bool]:
+    """Read the files and track the emitter: the command's work on the data.
+
+    The last item says whether the data have passed ``--to`` (``--follow`` then stops).
+    """
     from .. import tracking
 
     origin, dim, options = reading
-    meas = read_or_fail(paths, origin, dim=dim, notes=notes, shown_as=shown_as, **options)
+    ended = False
+    if shown_as is None:
+        meas = read_window(paths, origin, window, dim=dim, notes=notes, **options)
+    else:  # --follow: read all, so that the end of the window can be seen
+        meas, ended = followed_window(read_or_fail(paths, origin, dim=dim, notes=notes,
+                                                   shown_as=shown_as, **options), window)
     if notes:
         note_unused_model_options(meas, keywords["options"])
     try:
@@ -239,7 +263,26 @@ def track_files(paths: list[Path], reading: tuple[Any, int | None, dict[str, Any
 
             print_warnings(measurement_warnings(meas))
         raise
-    return meas, tr, tracking.truth_states(meas, tr.times, d)
+    return meas, tr, tracking.truth_states(meas, tr.times, d), ended
+
+
+def followed_window(meas: Any, window: tuple[str | None, str | None]) -> tuple[Any, bool]:
+    """``--follow``: the snapshot's rows in the window, and whether the data have passed ``--to``.
+
+    An empty window waits for more data unless the data have passed it; a bad ``--from`` or
+    ``--to`` stops the watch (more lines cannot mend it).
+    """
+    try:
+        t_to = window_times(meas, *window)[1]
+    except typer.Exit:
+        raise FaultInWrittenLines(2) from None
+    ended = t_to is not None and len(meas) > 0 and float(meas.time.max()) > t_to
+    try:
+        return select_window(meas, *window), ended
+    except typer.Exit:
+        if ended:
+            raise FaultInWrittenLines(2) from None
+        raise
 
 
 def write_track_page(meas: Any, tr: Any, path: Path, force: bool, options: dict[str, Any],
@@ -285,8 +328,8 @@ class Watch:
         already written stops the watch.
         """
         try:
-            meas, tr, truth = self.tracked(list(shown_as), notes=self.count == 0,
-                                           shown_as=shown_as)
+            meas, tr, truth, ended = self.tracked(list(shown_as), notes=self.count == 0,
+                                                  shown_as=shown_as)
         except FaultInWrittenLines:
             raise
         except typer.Exit as e:
@@ -308,6 +351,8 @@ class Watch:
             out.print(update_line(self.count, len(meas), answer, trust.level, self.units),
                       soft_wrap=True)
         self.write(meas, tr, truth, self.force or self.count > 1)
+        if ended:
+            raise FollowEnded("the data have passed --to: the window is tracked")
         return True
 
 
@@ -876,7 +921,11 @@ def watch(paths: list[Path], fmt: str | None, update: Callable[[dict[Path, Path]
         try:
             while max_updates is None or updates < max_updates:
                 if growing.poll():
-                    updates += bool(update(growing.snapshots))
+                    try:
+                        updates += bool(update(growing.snapshots))
+                    except FollowEnded as e:
+                        say.print(f"{e}: {updates + 1} update(s)")
+                        break
                 elif growing.ended:
                     say.print(f"standard input ended: {updates} update(s)")
                     break
