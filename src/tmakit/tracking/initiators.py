@@ -849,13 +849,15 @@ def _held_fit(residuals: Callable[[Array], Array], jacobians: Callable[[Array], 
               held: Array, basis: Array, start: Array) -> tuple[Array, Array]:
     """Give ``held + basis @ w`` at the least-squares ``w`` from ``start``'s, and its residuals.
 
-    Levenberg-Marquardt: MINPACK's lmder as ``least_squares(method="lm")`` calls it (its
-    default ``gtol`` and ``max_nfev``, ``x_scale="jac"``: the same fit, bit for bit) without
-    that wrapper's cost per call, the residuals at a point asked for twice computed once.
+    A trust-region reflective fit (``least_squares(method="trf")``, ``x_scale="jac"``; numpy
+    and LAPACK, the same fit bit for bit in every process), the residuals at a point asked for
+    twice computed once.  Not MINPACK's lmder (``leastsq``): with the same residuals and
+    Jacobians its steps differed between processes, with the contents of memory it had not
+    written (``MALLOC_PERTURB_`` changed them), and so did the profile's end.
     Raises ``FloatingPointError`` when it does not converge.
     """
     # (imported here: scipy.optimize takes 0.1-0.2 s to import, and few starts come here)
-    from scipy.optimize import leastsq
+    from scipy.optimize import least_squares
 
     last: list[tuple[bytes, Array]] = []
 
@@ -865,12 +867,12 @@ def _held_fit(residuals: Callable[[Array], Array], jacobians: Callable[[Array], 
             last[:] = [(key, residuals(held + basis @ w))]
         return last[0][1]
 
-    w, _, _, _, status = leastsq(res, basis.T @ start,
-                                 Dfun=lambda w: jacobians(held + basis @ w) @ basis,
-                                 full_output=True, xtol=1e-6, ftol=1e-6, gtol=1e-8,
-                                 maxfev=100 * basis.shape[1])
-    if status not in (1, 2, 3, 4):
+    fit = least_squares(res, basis.T @ start, jac=lambda w: jacobians(held + basis @ w) @ basis,
+                        method="trf", x_scale="jac", xtol=1e-6, ftol=1e-6, gtol=1e-8,
+                        max_nfev=100 * basis.shape[1])
+    if fit.status <= 0:
         raise FloatingPointError
+    w = fit.x
     return held + basis @ w, res(w)
 
 
