@@ -43,6 +43,9 @@ LEG_CHANGE_P = 1e-3
 REGION_4D = float(chi2_dist.ppf(0.95, 4))
 """chi2(4) 95 % quantile: the final state's region (x, y, vx, vy) of the CV fit."""
 
+CORRELATED = 0.5
+"""Above this lag-1 residual correlation the warning says the noise may be coloured."""
+
 GRID_TIMES = 40
 """The change time is searched on this many grid steps across the window."""
 
@@ -75,6 +78,8 @@ class LegChange:
     turn_first : bool
         Whether that fit turns before the change and holds a leg after (else a leg, then a
         turn).
+    correlation : float
+        The one-manoeuvre fit's residuals' lag-1 autocorrelation (:func:`residual_correlation`).
     distance2 : float
         The one-manoeuvre fit's final ``(x, y, vx, vy)`` in the CV fit's covariance there:
         Mahalanobis distance squared.
@@ -90,6 +95,7 @@ class LegChange:
     change: tuple[float, float]
     end: tuple[float, float]
     turn_first: bool
+    correlation: float
     distance2: float
 
     @property
@@ -105,6 +111,18 @@ class LegChange:
 
 def _is_cv2d(result: EstimateResult) -> bool:
     return str(getattr(result.motion, "name", "")) == "cv2d"
+
+
+def residual_correlation(meas: MeasurementSet, z: np.ndarray) -> float:
+    """Pool each sensor's lag-1 autocorrelation of the residuals ``z``, in [0, 0.95]."""
+    num = den = 0.0
+    for sensor in np.unique(meas.sensor):
+        rows = np.flatnonzero(meas.sensor == sensor)
+        e = z[rows[np.argsort(meas.time[rows], kind="stable")]]
+        e = e - e.mean()
+        num += float(np.sum(e[1:] * e[:-1]))
+        den += float(np.sum(e * e))
+    return float(np.clip(num / den, 0.0, 0.95)) if den > 0 else 0.0
 
 
 def leg_change_test(meas: MeasurementSet, result: EstimateResult,
@@ -160,6 +178,9 @@ def leg_change_test(meas: MeasurementSet, result: EstimateResult,
     den = n - p_cv - q - 1
     if den < 1 or not np.isfinite(one.chi2) or not one.chi2 > 0:
         return None
+    pr = search.problem(1)
+    z = pr.obs.residuals(one.theta, one.nuisance) / pr.obs.meas.sigma_si
+    rho = residual_correlation(pr.obs.meas, z)
     f = max(float(result.chi2) - one.chi2, 0.0) / q / (one.chi2 / den)
     searched = 2 * times.size
     p = min(1.0, searched * float(fdtrc(q, den, f)))
@@ -182,7 +203,7 @@ def leg_change_test(meas: MeasurementSet, result: EstimateResult,
         d2 = math.inf
     turn_first = bool(one.free is not None and one.free[4])
     return LegChange(f, p, searched, q, den, t_change, leg(st[0]), leg(st[1]), leg(st[2]),
-                     turn_first,
+                     turn_first, rho,
                      d2 if np.isfinite(d2) else math.inf)
 
 
@@ -226,5 +247,9 @@ def leg_change_warning(meas: MeasurementSet, result: EstimateResult,
            f"It holds {leg(test.start)} until the change, then turns, reaching "
            f"{leg(test.end)} at "
            "the end. ")
+        + (f"Even that fit's residuals run in long same-sign stretches (lag-1 correlation "
+           f"{test.correlation:.2f}): more than one manoeuvre, or noise correlated in time, "
+           "which would also make the printed ellipse too small. " if test.correlation
+           > CORRELATED else "")
         + f"{subject[0].upper()}{subject[1:]} and its ellipse assume no manoeuvre and may not "
         f"hold the truth: {advice}"))
