@@ -85,7 +85,7 @@ def test_a_track_started_across_the_leg_change_is_not_ok():
     assert "the track's batch start" in text.output and "warning: the target manoeuvred" in (
         text.output)
     js = runner.invoke(app, ["track", *AMBIG[:2], "--json"])
-    line = [ln for ln in js.stdout.splitlines() if ln.startswith("{")][0]
+    line = next(ln for ln in js.stdout.splitlines() if ln.startswith("{"))
     data = json.loads(line)
     assert data["trust"] == "warning"
     assert "target-manoeuvre" in [r["code"] for r in data["trust_reasons"]]
