@@ -177,8 +177,18 @@ def estimate(
         result = fit(meas)
     answer = answer_or_fail(result, meas, sensor, time=parse_time(at, meas, "--at"))
     warnings = result.warnings(meas)
+    warnings += manoeuvre_warnings(meas, result, model)
     print_estimate(meas, result, as_json, answer=answer, units=units, warnings=warnings,
                    factors=factors, plot=(plot, " + ".join(map(str, files)), model), more=more)
+
+
+def manoeuvre_warnings(meas: Any, result: Any, options: dict[str, Any]) -> list[Any]:
+    """Warn when a cv2d fit hides a target manoeuvre (:mod:`tmakit.batch.leg_change`)."""
+    from ..batch.leg_change import leg_change_warning
+
+    with failing():
+        found = leg_change_warning(meas, result, options)
+    return [] if found is None else [found]
 
 
 def read_leg_window(files: list[Path], origin: Any, options: dict[str, Any],

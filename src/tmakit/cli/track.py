@@ -204,7 +204,7 @@ def track(
         return watch(list(files), logs["format"], update, interval, max_updates, update.say)
     meas, tr, truth, _ = tracked(list(files))
     report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units,
-                 sums)
+                 sums, options)
     update.write(meas, tr, truth, force)
 
 
@@ -390,14 +390,14 @@ def run_track(meas: Any, filter_name: str, keywords: dict[str, Any], smooth: boo
 
 
 def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answer: Any,
-                 units: str, sums: bool = False) -> None:
+                 units: str, sums: bool = False, options: dict[str, Any] | None = None) -> None:
     """Print the track (table or one line of JSON), its final answers and the warnings."""
     import json
 
     from .. import tracking
     from ..results import measurement_warnings
 
-    warnings = measurement_warnings(meas)
+    warnings = measurement_warnings(meas) + start_manoeuvre_warnings(tr, meas, options)
     trust = track_trust(tr, warnings)
     if as_json:  # one line: the track is long, and rich's JSON printer slow on it
         typer.echo(json.dumps({**tracking.track_dict(tr, sums=sums), "answer": answer.as_dict(),
@@ -407,6 +407,24 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
         print_answers(answer, units, meas)
         out.print(f"trust: {trust.level}")
     print_warnings([r for r in trust.reasons if r.code == "held-nuisance"] + warnings)
+
+
+def start_manoeuvre_warnings(tr: Any, meas: Any, options: dict[str, Any] | None) -> list[Any]:
+    """Warn when the batch start's window hides a target manoeuvre (``target-manoeuvre``)."""
+    from .. import tracking
+    from ..batch.leg_change import leg_change_warning
+
+    start = tracking.start_record(tr)
+    if not isinstance(start, tracking.BatchStart):
+        return []
+    window = meas.take(meas.time <= start.time)
+    with failing():
+        found = leg_change_warning(window, start.estimate, options, subject=(
+            f"the track's batch start (a constant-velocity fit over its first {start.window} "
+            "measurement times, from which the filter goes on)"), advice=(
+            "start inside one leg (--init-window with fewer times, or --prior) or let the "
+            "filter follow manoeuvres (--q)"))
+    return [] if found is None else [found]
 
 
 def track_trust(tr: Any, warnings: list[Any]) -> Any:
