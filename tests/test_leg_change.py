@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+import tmakit as tk
 from tmakit.cli import app
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "benchmarks"))
@@ -56,6 +57,20 @@ def test_a_fit_across_the_debrief_targets_leg_change_is_warned_with_its_last_leg
         r"to course ([\d.]+) deg, speed [\d.]+ m/s \(([\d.]+) kn\), then holds that leg",
         message).groups())
     assert abs(course - 160.76) < 0.5 and abs(knots - 6.0) < 0.2, message
+
+
+def test_a_large_set_is_tested_on_rows_spread_in_time(monkeypatch):
+    """Above MAX_ROWS rows the test runs on that many rows evenly spread in time, the CV fit
+    refitted on them (a 10^7-row file must not cost the command a search over every row):
+    with the limit at 60 the Ambig files' change is still found, with its last leg."""
+    import tmakit.batch.leg_change as leg_change
+
+    monkeypatch.setattr(leg_change, "MAX_ROWS", 60)
+    meas = tk.read_measurements(AMBIG)
+    assert len(meas) > 60
+    test = leg_change.leg_change_test(meas, tk.estimate(meas, "cv2d"))
+    assert test is not None and test.manoeuvred and test.turn_first
+    assert test.dof_den < 60 and abs(test.end[0] - 160.76) < 1.0
 
 
 def test_a_fit_after_the_leg_change_is_not_warned():

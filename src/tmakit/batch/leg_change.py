@@ -34,6 +34,7 @@ from ..results.context import clock_time
 from ..results.estimate import EstimateResult
 from ..results.nuisance import as_known_nuisance
 from .manoeuvre import ManoeuvreSearch, ManoeuvreSettings
+from .ml import estimate
 
 __all__ = ["LEG_CHANGE_P", "LegChange", "leg_change_test", "leg_change_warning"]
 
@@ -51,6 +52,11 @@ GRID_TIMES = 40
 
 MIN_LEG = 0.1
 """Each leg spans at least this share of the window (and 3 grid steps)."""
+
+MAX_ROWS = 2000
+"""Larger sets are tested on this many rows evenly spread in time, the CV fit refitted on them
+(a leg change that moves the answer shows in a few thousand bearings; a search over 10⁷ rows
+would cost the command minutes)."""
 
 
 def search_settings(span: float) -> ManoeuvreSettings:
@@ -148,6 +154,12 @@ def leg_change_test(meas: MeasurementSet, result: EstimateResult,
     span = float(np.ptp(meas.time)) if len(meas) else 0.0
     if not span > 0:
         return None
+    if len(meas) > MAX_ROWS:
+        order = np.argsort(meas.time, kind="stable")
+        meas = meas.take(order[np.linspace(0, len(meas) - 1, MAX_ROWS).round().astype(int)])
+        result = estimate(meas, result.motion, init=result.estimate, options=options)
+        if result.status != "converged" or not np.isfinite(result.chi2):
+            return None
     search = ManoeuvreSearch(meas, options, as_known_nuisance(None), search_settings(span))
     times = search.grid[(search.grid - search.t0 >= search.s.min_segment)
                         & (search.t_end - search.grid >= search.s.min_segment)]
