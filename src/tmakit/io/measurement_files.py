@@ -123,7 +123,7 @@ def _read_one(path: Path, origin: tuple[float, float, float] | None, format: str
 
 
 class ForeignOptionError(TypeError):
-    """Options given to a format's reader that it does not take (``foreign``; it takes ``taken``)."""
+    """Options a format's reader does not take (``foreign``; it takes ``taken``)."""
 
     def __init__(self, label: str, foreign: list[str], taken: list[str]) -> None:
         self.label, self.foreign, self.taken = label, foreign, taken
