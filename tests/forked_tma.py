@@ -54,12 +54,16 @@ def serve(path: str) -> None:
     """
     import selectors
 
+    from numba_lock import NUMBA_LOCK_VARIABLE, compile_one_at_a_time
+
     import tmakit.cli  # noqa: F401  (the command and what it imports on every run)
 
     for name in ("numpy", "scipy.linalg", "scipy.optimize", "scipy.stats", "pandas", "numba",
                  "matplotlib.pyplot", "tmakit.io", "tmakit.batch", "tmakit.filters",
                  "tmakit.tracking", "tmakit.results"):
         __import__(name)  # what most commands import later: loaded once here
+    if os.environ.get(NUMBA_LOCK_VARIABLE):  # the forks compile one at a time with pytest's
+        compile_one_at_a_time(Path(os.environ[NUMBA_LOCK_VARIABLE]))  # workers
     sys.path[0] = str(Path(TMA).parent)  # as the console script has it
     supervisors: set[int] = set()
 

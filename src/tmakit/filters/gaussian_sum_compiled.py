@@ -111,6 +111,17 @@ def split_sum(w: Array, m: Array, p: Array, origin: IntArray, count: int, sensor
 
 
 @_inline
+def _copy_component(m: Array, p: Array, i: int, to_m: Array, to_p: Array,
+                    j: int) -> None:  # pragma: no cover - compiled
+    # element by element: an array assignment compiles numba's shape check and its message
+    n = m.shape[1]
+    for r in range(n):
+        to_m[j, r] = m[i, r]
+        for c in range(n):
+            to_p[j, r, c] = p[i, r, c]
+
+
+@_inline
 def _prune(w: Array, m: Array, p: Array, origin: IntArray, count: int,
            prune: float) -> int:  # pragma: no cover - compiled
     """Drop the components lighter than ``prune`` of the heaviest; give the new count."""
@@ -122,11 +133,47 @@ def _prune(w: Array, m: Array, p: Array, origin: IntArray, count: int,
         if w[i] >= prune * top and w[i] > 0.0:
             if keep != i:
                 w[keep] = w[i]
-                m[keep, :] = m[i, :]
-                p[keep, :, :] = p[i, :, :]
+                _copy_component(m, p, i, m, p, keep)
                 origin[keep] = origin[i]
             keep += 1
     return keep
+
+
+@_inline
+def _whitened_distance2(chol: Array, m: Array, i: int, j: int,
+                        d: Array) -> float:  # pragma: no cover - compiled
+    """Give ``|L^-1 (m_j - m_i)|^2`` (``L L^T = P_i``) by forward substitution, ``d`` its work."""
+    d2 = 0.0
+    for r in range(m.shape[1]):
+        acc = m[j, r] - m[i, r]
+        for c in range(r):
+            acc -= chol[r, c] * d[c]
+        d[r] = acc / chol[r, r]
+        d2 += d[r] * d[r]
+    return d2
+
+
+@_inline
+def _members_moments(w: Array, m: Array, p: Array, members: list[int], mean: Array, cov: Array,
+                     d: Array) -> float:  # pragma: no cover - compiled
+    """Write the weighted moments of ``members`` (``cov`` times their weight); give the weight."""
+    n = m.shape[1]
+    wt = 0.0
+    mean[:] = 0.0
+    for j in members:
+        wt += w[j]
+        for r in range(n):
+            mean[r] += w[j] * m[j, r]
+    for r in range(n):
+        mean[r] /= wt
+    cov[:, :] = 0.0
+    for j in members:
+        for r in range(n):
+            d[r] = m[j, r] - mean[r]
+        for r in range(n):
+            for c in range(n):
+                cov[r, c] += w[j] * (p[j, r, c] + d[r] * d[c])
+    return wt
 
 
 @_inline
@@ -143,6 +190,7 @@ def _merge(w: Array, m: Array, p: Array, origin: IntArray, count: int,
     nm = np.empty((count, n))
     npp = np.empty((count, n, n))
     norigin = np.empty(count, dtype=origin.dtype)
+    d, mean, cov = np.empty(n), np.empty(n), np.empty((n, n))
     out = 0
     for oi in range(count):
         i = order[oi]
@@ -154,29 +202,20 @@ def _merge(w: Array, m: Array, p: Array, origin: IntArray, count: int,
         for oj in range(oi + 1, count):
             j = order[oj]
             if not used[j]:
-                d = np.linalg.solve(chol, m[j] - m[i])
-                if np.dot(d, d) < merge:
+                if _whitened_distance2(chol, m, i, j, d) < merge:
                     used[j] = True
                     members.append(j)
-        wt = 0.0
-        mean = np.zeros(n)
-        for j in members:
-            wt += w[j]
-            mean += w[j] * m[j]
-        mean /= wt
-        cov = np.zeros((n, n))
-        for j in members:
-            d = m[j] - mean
-            cov += w[j] * (p[j] + np.outer(d, d))
+        wt = _members_moments(w, m, p, members, mean, cov, d)
         nw[out] = wt
-        nm[out] = mean
-        npp[out] = 0.5 * (cov + cov.T) / wt
+        for r in range(n):
+            nm[out, r] = mean[r]
+            for c in range(n):
+                npp[out, r, c] = 0.5 * (cov[r, c] + cov[c, r]) / wt
         norigin[out] = origin[i]
         out += 1
     for i in range(out):
         w[i] = nw[i]
-        m[i] = nm[i]
-        p[i] = npp[i]
+        _copy_component(nm, npp, i, m, p, i)
         origin[i] = norigin[i]
     return out
 
@@ -208,7 +247,8 @@ def sum_moments(w: Array, m: Array, p: Array, count: int, mean: Array,
     n = m.shape[1]
     mean[:] = 0.0
     for i in range(count):
-        mean += w[i] * m[i]
+        for r in range(n):
+            mean[r] += w[i] * m[i, r]
     cov[:, :] = 0.0
     for i in range(count):
         d = m[i] - mean
@@ -267,8 +307,8 @@ def _ekf_bearing(m: Array, p: Array, i: int, z: float, var: float, sx: float, sy
         x = new
         if move < IEKF_TOL * math.sqrt(r2):
             break
-    m[i] = x
     for r in range(4):
+        m[i, r] = x[r]
         for cc in range(4):
             p[i, r, cc] -= k[r] * c[cc]
     return nu0, s0, True
@@ -285,10 +325,11 @@ def _sigma_bearing(m: Array, p: Array, i: int, z: float, var: float, sx: float, 
             return 0.0, 0.0, False
     chol = np.linalg.cholesky(p[i])
     pts = np.empty((2 * n + 1, n))
-    pts[0] = m[i]
-    for j in range(n):
-        pts[1 + j] = m[i] + gamma * chol[:, j]
-        pts[1 + n + j] = m[i] - gamma * chol[:, j]
+    for a in range(n):
+        pts[0, a] = m[i, a]
+        for j in range(n):
+            pts[1 + j, a] = m[i, a] + gamma * chol[a, j]
+            pts[1 + n + j, a] = m[i, a] - gamma * chol[a, j]
     zs = np.empty(2 * n + 1)
     cs = 0.0
     sn = 0.0
@@ -306,12 +347,14 @@ def _sigma_bearing(m: Array, p: Array, i: int, z: float, var: float, sx: float, 
         e = _wrap(zs[j] - zbar)
         wj = wc0 if j == 0 else wi
         s += wj * e * e
-        pxz += wj * e * (pts[j] - m[i])
+        for a in range(n):
+            pxz[a] += wj * e * (pts[j, a] - m[i, a])
     if not (s > 0.0 and math.isfinite(s)):
         return 0.0, 0.0, False
     nu = _wrap(z - zbar)
     k = pxz / s
-    m[i] += k * nu
+    for r in range(n):
+        m[i, r] += k[r] * nu
     for r in range(n):
         for c in range(n):
             p[i, r, c] -= k[r] * pxz[c]
@@ -400,8 +443,8 @@ def gsf_bearing_2d(w: Array, m: Array, p: Array, origin: IntArray, count: int, t
         sum_moments(w, m, p, count, out_mean[k], out_cov[k])
         out_count[k] = count
         if kept[0].shape[0]:
-            kept[0][k, :count] = w[:count]
-            kept[1][k, :count] = m[:count]
-            kept[2][k, :count] = p[:count]
-            kept[3][k, :count] = origin[:count]
+            for i in range(count):
+                kept[0][k, i] = w[i]
+                _copy_component(m, p, i, kept[1][k], kept[2][k], i)
+                kept[3][k, i] = origin[i]
     return count, t, skipped

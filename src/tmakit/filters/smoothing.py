@@ -165,7 +165,8 @@ def _draw_predecessors(a: Array, prior: Array, b: Array, u: Array,
     dim, n_p = a.shape
     score = np.empty(n_p)
     for m in range(b.shape[0]):
-        score[:] = prior
+        for i in range(n_p):  # (element by element: no array assignment's shape check to compile)
+            score[i] = prior[i]
         for c in range(dim):
             bc = b[m, c]
             for i in range(n_p):
@@ -173,7 +174,8 @@ def _draw_predecessors(a: Array, prior: Array, b: Array, u: Array,
                 score[i] -= 0.5 * e * e
         top = score.max()
         if top == -np.inf:  # no particle can move there: the weights alone
-            score[:] = prior
+            for i in range(n_p):
+                score[i] = prior[i]
             top = score.max()
         total = 0.0
         for i in range(n_p):

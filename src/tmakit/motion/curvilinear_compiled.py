@@ -196,7 +196,8 @@ def _link(theta: Array, frm: int, to: int, seg_acc: int, t_to: int, t_from: int,
                    v_start[frm], a_t, theta[5 + 2 * seg_acc], dt, True)
     _write(out, v6, p47, 0, 0, partials, True, dt, a_t)
     starts[to] = theta[t_to]
-    anchors[to, :] = v6[0, 0, :4]
+    for j in range(4):  # (element by element: no array assignment's shape check to compile)
+        anchors[to, j] = v6[0, 0, j]
     v_start[to] = anchors[to, 2] * cmath.exp(1j * anchors[to, 3])
     if partials:
         _derive_anchor(p47[0, 0], d_anchor[frm], seg_acc, t_to, t_from, d_anchor[to])
@@ -222,7 +223,8 @@ def _anchors(theta: Array, M: int, ref_time: float, end_time: float, anywhere: b
     if not anywhere and M:
         valid = valid and ref_time < theta[k0] and theta[k0 + M - 1] < end_time
     starts[ref] = ref_time
-    anchors[ref, :] = theta[:4]
+    for j in range(4):
+        anchors[ref, j] = theta[j]
     if partials:
         d_anchor[ref, :, :] = 0.0
         for j in range(4):

@@ -562,7 +562,8 @@ def decide_planar(position: Array, heading: float, speed: float, climb: float,
                   bound: Array) -> int:
     """One decision over ``A`` candidates; return the best, or why not."""
     start = np.empty((1, 6))
-    start[0, :3] = position
+    for i in range(3):  # (element by element: no array assignment's shape check to compile)
+        start[0, i] = position[i]
     start[0, 3] = heading
     start[0, 4] = speed
     start[0, 5] = climb
