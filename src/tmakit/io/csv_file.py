@@ -551,11 +551,9 @@ def write_csv(ms: MeasurementSet, path: Path, force: bool) -> None:
     write_table(path, file_columns(ms), format="csv", force=force, csv_preamble=preamble)
 
 
-def read_csv(path: Path, *, origin: tuple[float, float, float] | None = None,
-             **options: Any) -> MeasurementSet:
+def read_csv(path: Path, *, origin: tuple[float, float, float] | None = None
+             ) -> MeasurementSet:
     """Read and check a CSV measurement file (the :data:`CSV` format's reader)."""
-    if options:
-        raise TypeError(f"CSV files take no options {', '.join(sorted(options))}")
     streamed = stream_csv(path, _PREAMBLE_SCAN, origin)  # a valid file, bounded memory
     if streamed is not None:
         return streamed

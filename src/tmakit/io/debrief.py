@@ -756,7 +756,9 @@ def _metadata(paths: list[Path], cuts: _Cuts, contact: str | None, sig: dict[str
 
 #: Debrief replay files: ``.rep`` and ``.dsf`` (the same line format).
 REPLAY = register_format(Format("rep", "Debrief replay", (".rep", ".dsf"), read_replay, None,
-                                several=True))
+                                several=True, options=(
+                                    "ownship", "contact", "bearing_sigma", "range_sigma",
+                                    "frequency_sigma", "dim", "ranges", "kinds", "window")))
 
 
 def _at_line(item: TrackLine | SensorLine | LineProblem) -> str:

@@ -39,6 +39,9 @@ class Format:
     several : bool, optional
         The reader takes a sequence of files and reads them as one (Debrief replays: a
         sensor file and the own ship's track file).
+    options : tuple of str, optional
+        The keyword options the reader takes besides ``origin``; any other is refused by
+        :func:`tmakit.io.read_measurements`, naming it and these.
     """
 
     name: str
@@ -47,6 +50,7 @@ class Format:
     read: Reader | None = None
     write: Writer | None = None
     several: bool = False
+    options: tuple[str, ...] = ()
 
 
 _FORMATS: dict[str, Format] = {}

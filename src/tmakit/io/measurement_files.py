@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import inspect
 import os
 from collections.abc import Collection, Mapping, Sequence
 from pathlib import Path
@@ -133,16 +132,11 @@ class ForeignOptionError(TypeError):
 
 def _refuse_foreign_options(fmt: Format, options: dict[str, object]) -> None:
     """Refuse options the format's reader does not take, naming them and the ones it does."""
-    assert fmt.read is not None
-    params = inspect.signature(fmt.read).parameters
-    if any(p.kind is p.VAR_KEYWORD for p in params.values()):
-        return  # the reader names what it refuses itself
-    taken = [n for n, p in params.items() if p.kind is p.KEYWORD_ONLY and n != "origin"]
-    foreign = sorted(set(options) - set(taken))
+    foreign = sorted(set(options) - set(fmt.options))
     if foreign:
         shown = {"bearing_sigma": "bearing_sigma_deg"}
         raise ForeignOptionError(fmt.label, [shown.get(n, n) for n in foreign],
-                                 [shown.get(n, n) for n in taken])
+                                 [shown.get(n, n) for n in fmt.options])
 
 
 def _read_several(paths: list[Path], origin: tuple[float, float, float] | None,

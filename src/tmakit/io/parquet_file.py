@@ -6,7 +6,6 @@ The columns of the contract, and metadata under ``tmakit:`` keys of the Arrow sc
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 from ..data import MeasurementSet
 from .checker import PARQUET_METADATA_PREFIX, RawTable, check_table, file_columns
@@ -55,11 +54,9 @@ def write_parquet(ms: MeasurementSet, path: Path, force: bool) -> None:
                 parquet_schema=pa.schema(fields))
 
 
-def read_parquet(path: Path, *, origin: tuple[float, float, float] | None = None,
-                 **options: Any) -> MeasurementSet:
+def read_parquet(path: Path, *, origin: tuple[float, float, float] | None = None
+                 ) -> MeasurementSet:
     """Read and check a Parquet measurement file (the :data:`PARQUET` format's reader)."""
-    if options:
-        raise TypeError(f"Parquet files take no options {', '.join(sorted(options))}")
     return check_table(path, load_parquet(path), origin)
 
 

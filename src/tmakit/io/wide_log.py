@@ -720,8 +720,11 @@ def read_track_fixes(path: str | os.PathLike[str]) -> Fixes:
 
 
 #: Wide logs: read with ``format="wide"`` and a mapping (CSV or Parquet; no suffix of its own).
-WIDE = register_format(Format("wide", "wide log", (), read_wide_log, None))
+WIDE = register_format(Format("wide", "wide log", (), read_wide_log, None,
+                              options=("mapping", "dim", "track")))
 #: GPX own tracks joined to a measurement log (``measurements=``, ``mapping=``).
-GPX = register_format(Format("gpx", "GPX", (".gpx",), read_track_log, None))
+GPX = register_format(Format("gpx", "GPX", (".gpx",), read_track_log, None,
+                             options=("measurements", "mapping", "dim")))
 #: NMEA 0183 own tracks joined to a measurement log (``measurements=``, ``mapping=``).
-NMEA = register_format(Format("nmea", "NMEA 0183", (".nmea", ".nme"), read_track_log, None))
+NMEA = register_format(Format("nmea", "NMEA 0183", (".nmea", ".nme"), read_track_log, None,
+                              options=("measurements", "mapping", "dim")))
