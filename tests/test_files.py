@@ -309,6 +309,14 @@ def test_a_csv_without_any_column_of_the_format_names_every_missing_one(tmp_path
     message = refused(path)
     assert str(path) in message
     assert all(f"column '{c}' is missing: " in message for c in HEADER.split(",")[:7])
+    assert "a wide log (a row per time, a column per measurement) is read with a column " \
+        "mapping (--mapping MAP.toml; tma import wide LOG --guess proposes one" in message
+
+
+def test_a_csv_separated_by_semicolons_is_told_the_separator(tmp_path):
+    path = tmp_path / "semi.csv"
+    path.write_text(HEADER.replace(",", ";") + "\n" + GOOD_ROWS[0].replace(",", ";") + "\n")
+    assert "tmakit's own file separates its columns by commas" in refused(path)
 
 
 def test_missing_velocity_names_the_kinds_that_need_it(tmp_path):

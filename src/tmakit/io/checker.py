@@ -575,7 +575,14 @@ def _stripped(text: NDArray[np.object_]) -> NDArray[np.object_]:
 def check_columns(columns: Collection[str], kinds: list[str], problems: Problems) -> Layout:
     """Record missing or conflicting columns, given the kinds present in the file."""
     has = set(columns).__contains__
-    for c in ("time", "sensor", "kind", "value", "sigma"):
+    core = ("time", "sensor", "kind", "value", "sigma")
+    if not any(map(has, core)):
+        problems.file.append(
+            "none of the columns of tmakit's measurement file: a wide log (a row per time, a "
+            "column per measurement) is read with a column mapping (--mapping MAP.toml; "
+            "tma import wide LOG --guess proposes one: docs/your-own-data.md), and tmakit's "
+            "own file separates its columns by commas")
+    for c in core:
         if not has(c):
             problems.missing(c)
     geodetic = _check_position(has, problems)
