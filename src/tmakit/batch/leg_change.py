@@ -155,9 +155,7 @@ def leg_change_test(meas: MeasurementSet, result: EstimateResult,
     if not span > 0:
         return None
     if len(meas) > MAX_ROWS:
-        order = np.argsort(meas.time, kind="stable")
-        meas = meas.take(order[np.linspace(0, len(meas) - 1, MAX_ROWS).round().astype(int)])
-        result = estimate(meas, result.motion, init=result.estimate, options=options)
+        meas, result = _spread_rows(meas, result, options)
         if result.status != "converged" or not np.isfinite(result.chi2):
             return None
     search = ManoeuvreSearch(meas, options, as_known_nuisance(None), search_settings(span))
@@ -204,19 +202,32 @@ def leg_change_test(meas: MeasurementSet, result: EstimateResult,
     def leg(s: np.ndarray) -> tuple[float, float]:
         return math.degrees(float(s[3])) % 360.0, float(s[2])
 
-    x, y, speed, course = st[2]
+    turn_first = bool(one.free is not None and one.free[4])
+    return LegChange(f, p, searched, q, den, t_change, leg(st[0]), leg(st[1]), leg(st[2]),
+                     turn_first, rho, _distance2(result, st[2], search.t_end))
+
+
+def _distance2(result: EstimateResult, segment_state: np.ndarray, t_end: float) -> float:
+    """Mahalanobis distance squared of a segment's end state from the CV fit's at ``t_end``."""
+    x, y, speed, course = segment_state
     end = np.array([x, y, speed * math.sin(course), speed * math.cos(course)])
-    state, cov, _, _ = fit_state(result, search.t_end)
+    state, cov, _, _ = fit_state(result, t_end)
     keep = [0, 1, 3, 4]
     gap = end - state[keep]
     try:
         d2 = float(gap @ np.linalg.solve(cov[np.ix_(keep, keep)], gap))
     except np.linalg.LinAlgError:
-        d2 = math.inf
-    turn_first = bool(one.free is not None and one.free[4])
-    return LegChange(f, p, searched, q, den, t_change, leg(st[0]), leg(st[1]), leg(st[2]),
-                     turn_first, rho,
-                     d2 if np.isfinite(d2) else math.inf)
+        return math.inf
+    return d2 if np.isfinite(d2) else math.inf
+
+
+def _spread_rows(meas: MeasurementSet, result: EstimateResult,
+                 options: Mapping[str, Mapping[str, object]] | None
+                 ) -> tuple[MeasurementSet, EstimateResult]:
+    """``MAX_ROWS`` rows evenly spread in time, and the CV fit refitted on them."""
+    order = np.argsort(meas.time, kind="stable")
+    meas = meas.take(order[np.linspace(0, len(meas) - 1, MAX_ROWS).round().astype(int)])
+    return meas, estimate(meas, result.motion, init=result.estimate, options=options)
 
 
 def leg_change_warning(meas: MeasurementSet, result: EstimateResult,
