@@ -53,10 +53,10 @@ GRID_TIMES = 40
 MIN_LEG = 0.1
 """Each leg spans at least this share of the window (and 3 grid steps)."""
 
-MAX_ROWS = 2000
+MAX_ROWS = 1000
 """Larger sets are tested on this many rows evenly spread in time, the CV fit refitted on them
 (a leg change that moves the answer shows in a few thousand bearings; a search over 10⁷ rows
-would cost the command minutes)."""
+would cost the command minutes; 0.16 s at 1,000 rows)."""
 
 
 def search_settings(span: float) -> ManoeuvreSettings:
