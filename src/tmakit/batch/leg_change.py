@@ -55,7 +55,7 @@ MIN_LEG = 0.1
 
 MAX_ROWS = 1000
 """Larger sets are tested on this many rows evenly spread in time, the CV fit refitted on them
-(a leg change that moves the answer shows in a few thousand bearings; a search over 10⁷ rows
+(a leg change that moves the answer shows in a thousand bearings; a search over 10⁷ rows
 would cost the command minutes; 0.16 s at 1,000 rows)."""
 
 
