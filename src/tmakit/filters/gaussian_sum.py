@@ -258,24 +258,7 @@ class GaussianSumFilter(TrackingFilter):
     @classmethod
     def from_first_bearing(cls, prior: BearingPrior, first: FirstBearing, dim: int = 2,
                            **settings: Unpack[FilterSettings]) -> Self:
-        """Start from the range-parameterised sum of a bearing prior (Peach 1995).
-
-        Parameters
-        ----------
-        prior : BearingPrior
-            Range, speed (and height) intervals.
-        first : FirstBearing
-            The first bearing (its time is the filter's).
-        dim : int
-            2 or 3.
-        **settings
-            The filter's keywords (:class:`FilterSettings`).
-
-        Returns
-        -------
-        GaussianSumFilter
-            A filter of this class.
-        """
+        """Start from the range-parameterised sum of a bearing prior (Peach 1995)."""
         w, m, p = prior.mixture(first, dim)
         return cls.from_mixture(w, m, p, first.time, **settings)
 

@@ -266,21 +266,8 @@ class ModifiedPolarEKF(TrackingFilter):
         the rates those of the relative velocity over the range (:func:`prior_moments`); the
         origin is the first bearing's sensor.
 
-        Parameters
-        ----------
-        prior : BearingPrior
-            Range, speed (and height) intervals.
-        first : FirstBearing
-            The first bearing (its time is the filter's).
-        dim : int
-            2 or 3.
-        **settings
-            The class's keywords (``q``, ``dynamics``, ...), but ``origin``.
-
-        Returns
-        -------
-        ModifiedPolarEKF
-            A filter of this class.
+        Takes the base's parameters (:meth:`TrackingFilter.from_first_bearing`), but
+        ``origin``.
 
         Raises
         ------

@@ -160,21 +160,8 @@ class ParticleFilter(TrackingFilter):
                            **settings: Unpack[FilterSettings]) -> Self:
         """Start from particles drawn from a bearing prior (:meth:`BearingPrior.sample`).
 
-        Parameters
-        ----------
-        prior : BearingPrior
-            Range, speed (and height) intervals.
-        first : FirstBearing
-            The first bearing (its time is the filter's).
-        dim : int
-            2 or 3.
-        **settings
-            The class's keywords (``particles``, ``rng``, ...), but ``bearing_start``.
-
-        Returns
-        -------
-        ParticleFilter
-            A filter of this class.
+        Takes the base's parameters (:meth:`TrackingFilter.from_first_bearing`), but
+        ``bearing_start``.
 
         Raises
         ------
