@@ -29,7 +29,9 @@ from .logs import (
     course_speed_velocity,
     interpolate_states,
     iso_utc,
+    listed,
     local_frame,
+    one_fix_a_time,
     relative_seconds,
     seconds_of_time_text,
     time_origin_ns,
@@ -414,11 +416,11 @@ def _judge_problems(where: Path, parsed: ParsedReplay, host: str, notes: list[st
     other = [f"{_problem(p)} (track {p.owner!r})" for p in parsed.problems]
     if other:
         notes.append(f"warning: {len(other)} line(s) of tracks not used break the format and "
-                     f"are skipped: {_listed(other)}")
+                     f"are skipped: {listed(other)}")
     if parsed.carries:
         carried = [f"{_at_line(c)} {c.message}" for c in parsed.carries]
         notes.append(f"note: {len(carried)} position(s) written with 60 minutes or seconds read "
-                     f"as a carry, as Debrief reads them: {_listed(carried)}")
+                     f"as a carry, as Debrief reads them: {listed(carried)}")
 
 
 def _choose(path: Path, parsed: ParsedReplay, ownship: str | None,
@@ -430,7 +432,7 @@ def _choose(path: Path, parsed: ParsedReplay, ownship: str | None,
         tracks = list(dict.fromkeys(t.name for t in parsed.tracks))
         raise MeasurementFileError(path, [
             "no ;SENSOR:, ;SENSOR2: or ;SENSOR3: line: nothing measured" + (
-                f"; the tracks read ({_listed(tracks)}) are positions: give an own ship's "
+                f"; the tracks read ({listed(tracks)}) are positions: give an own ship's "
                 f"track with its sensor file in one command (tma show SENSOR.dsf OWN.rep)"
                 if tracks else "")])
     ownship = None if ownship is None else ownship.strip()
@@ -548,7 +550,7 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
         tonal_names = list(dict.fromkeys(t for t in tonals if t))
         _note(metadata, f"note: frequencies are sonar tonals carried by sound at "
               f"{SOUND_SPEED_SEA_M_S:g} m/s (sea water; --propagation-speed to change); "
-              f"{len(tonal_names)} tonal(s) ({_listed(tonal_names)}), each with its own "
+              f"{len(tonal_names)} tonal(s) ({listed(tonal_names)}), each with its own "
               "unknown base frequency f0")
     raw = MeasurementSet.from_si(
         np.array(times), _sensor_ids(cuts.host, names, kinds_, metadata), np.array(kinds_),
@@ -567,7 +569,7 @@ def _sigma_by_sensor(where: Path, cuts: _Cuts, by_sensor: dict[str, float]) -> d
         name = key.strip().removeprefix(f"{cuts.host}/")
         if name not in names:
             bad.append(f"bearing sigma of sensor {key!r}: no cut of own ship {cuts.host!r} is "
-                       f"from it (sensors: {_listed(names)})")
+                       f"from it (sensors: {listed(names)})")
         elif not (isinstance(value, int | float) and value > 0):
             bad.append(f"bearing sigma of sensor {key!r}: {value!r}, expected a number > 0 (deg)")
         else:
@@ -596,7 +598,7 @@ def _one_copy(columns: tuple[list, ...], notes: list[str]) -> tuple[list, ...]:
     drop = {(t, kind, name) for (t, kind), seen in by_time.items() for name in seen
             if any((name, a, kind) in copies for a in seen)}
     notes.append("note: a sensor of the own ship repeats another's values at every time both "
-                 "measure (copies of one cut, read once as a cut written twice): " + _listed(
+                 "measure (copies of one cut, read once as a cut written twice): " + listed(
                      [f"{n} {kind}(s) of {b} repeat {a}" for (b, a, kind), n in copies.items()]))
     keep = [i for i, key in enumerate(zip(times, kinds, names, strict=True)) if key not in drop]
     return tuple([col[i] for i in keep] for col in columns)
@@ -613,8 +615,8 @@ def _sensor_ids(host: str, names: list[str], kinds: list[str],
     if not shared:
         return np.full(len(names), host)
     told = list(dict.fromkeys(names))
-    ids = _listed([f"{host}/{n}" for n in told])
-    _note(metadata, f"note: {len(told)} sensors of own ship {host!r} ({_listed(told)}) measure "
+    ids = listed([f"{host}/{n}" for n in told])
+    _note(metadata, f"note: {len(told)} sensors of own ship {host!r} ({listed(told)}) measure "
           f"{' and '.join(shared)}: each is a sensor of its own ({ids}), at the positions its "
           "cuts state, else the own ship's (a sensor set apart, a towed array astern, needs its "
           "positions in its cuts), and their cuts are fitted together (--contact NAME fits one)")
@@ -673,7 +675,7 @@ def _checked(path: Path, raw: MeasurementSet, lines: list[str],
             raise
         other = twice[0].partition("at the time of ")[2].partition(" (")[0]
         raise MeasurementFileError(path, [  # cuts of several contacts at one time
-            f"the cuts read name {len(contacts)} contacts ({_listed(contacts)}), two of them "
+            f"the cuts read name {len(contacts)} contacts ({listed(contacts)}), two of them "
             f"at one time ({twice[0].split(':')[0]} and {other}): one fit cannot take "
             "two contacts' cuts; choose one with --contact NAME (the first word of the "
             "labels)"]) from None
@@ -766,11 +768,6 @@ def _at_line(item: TrackLine | SensorLine | LineProblem) -> str:
     return f"{item.file} line {item.line}" if item.file else f"line {item.line}"
 
 
-def _listed(items: Sequence[str], most: int = 5, sep: str = "; ") -> str:
-    """Join the first ``most`` items, then say how many more there are."""
-    return sep.join(items[:most]) + (f" and {len(items) - most} more" if len(items) > most else "")
-
-
 def _values(item: TrackLine | SensorLine) -> str:
     text = f"{item.lat:.6f}, {item.lon:.6f}"
     if isinstance(item, TrackLine):
@@ -786,32 +783,6 @@ def _same(a: TrackLine | SensorLine, b: TrackLine | SensorLine) -> bool:
     return close
 
 
-def _unique(path: Path, lines: Sequence[TrackLine | SensorLine], host: str,
-            notes: list[str]) -> list[TrackLine | SensorLine]:
-    """Keep one of each fix written twice; refuse two different fixes at one time."""
-    ordered = sorted(lines, key=lambda x: x.time_ns)
-    kept: list[TrackLine | SensorLine] = []
-    repeats: list[str] = []
-    problems: list[str] = []
-    for item in ordered:
-        if kept and kept[-1].time_ns == item.time_ns:
-            if _same(kept[-1], item):
-                repeats.append(f"{_at_line(item)} repeats {_at_line(kept[-1])}")
-            else:
-                problems.append(
-                    f"{_at_line(item)}: own ship {host!r} has two different fixes at "
-                    f"{iso_utc(item.time_ns)}: {_at_line(kept[-1])} ({_values(kept[-1])}) and "
-                    f"{_at_line(item)} ({_values(item)})")
-            continue
-        kept.append(item)
-    if problems:
-        raise MeasurementFileError(path, problems)
-    if repeats:
-        notes.append(f"note: own ship {host!r}: {len(repeats)} fix(es) written twice (same time "
-                     f"and values) read once: {_listed(repeats)}")
-    return kept
-
-
 def _host_fixes(path: Path, tracks: list[TrackLine], host: str, rows: list[SensorLine],
                notes: list[str]) -> Fixes:
     """Return the host's fixes: its track lines, else the positions its sensor lines state."""
@@ -820,11 +791,20 @@ def _host_fixes(path: Path, tracks: list[TrackLine], host: str, rows: list[Senso
     null = [s for s in rows if s.lat is None]
     if not mine and null and not stated:
         named = ", ".join(dict.fromkeys(t.name for t in tracks)) or "none"
-        lines = _listed([_at_line(s) for s in null], sep=", ")
+        lines = listed([_at_line(s) for s in null], sep=", ")
         raise MeasurementFileError(path, [
             f"sensor positions NULL ({lines}), but own ship {host!r} has no track lines "
             f"(tracks read: {named}): {_PAIR_HINT}"])
-    kept = _unique(path, mine or stated, host, notes)
+    by_time: list[TrackLine | SensorLine] = sorted(mine or stated, key=lambda x: x.time_ns)
+    kept, repeats = one_fix_a_time(
+        path, by_time, lambda x: x.time_ns, _same,
+        lambda a, b: f"{_at_line(b)}: own ship {host!r} has two different fixes at "
+                     f"{iso_utc(b.time_ns)}: {_at_line(a)} ({_values(a)}) and {_at_line(b)} "
+                     f"({_values(b)})")
+    if repeats:
+        notes.append(f"note: own ship {host!r}: {len(repeats)} fix(es) written twice (same time "
+                     f"and values) read once: "
+                     + listed([f"{_at_line(a)} repeats {_at_line(b)}" for a, b in repeats]))
     fixes = [t for t in kept if isinstance(t, TrackLine)]  # (all of them when mine)
     velocity = None if not mine else course_speed_velocity(
         np.array([t.course for t in fixes]), np.array([t.speed_kn for t in fixes]) * KNOT)
@@ -851,7 +831,7 @@ def _sensor_states(path: Path, rows: list[SensorLine], fixes: Fixes, frame: Loca
     bad = np.flatnonzero(outside & ~given)
     if bad.size:
         span = f"{iso_utc(int(fixes.time_ns[0]))} to {iso_utc(int(fixes.time_ns[-1]))}"
-        named = _listed([_at_line(rows[k]) for k in bad.tolist()], sep=", ")
+        named = listed([_at_line(rows[k]) for k in bad.tolist()], sep=", ")
         message = (f"{bad.size} cut(s) with a NULL position fall outside the own ship's track "
                    f"{rows[bad[0]].host!r} ({span}) and are left out: {named}")
         if bad.size == len(rows):

@@ -8,10 +8,10 @@ from __future__ import annotations
 import datetime as dt
 import math
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,8 +27,9 @@ __all__ = ["EPOCH_UNITS", "KNOT", "LATEST_NS", "PLAUSIBLE_YEARS", "SURFACE_TOLER
            "VELOCITY_WINDOW_S", "YARD", "Fixes", "LocalFrame", "checked_rows",
            "clock_time_problem", "clock_times", "course_speed_velocity", "csv_separator",
            "fill_altitudes", "fix_problems", "interpolate_heading", "interpolate_states",
-           "iso_utc", "local_frame", "parse_clock_times", "relative_seconds",
-           "seconds_of_time_text", "surface_dim", "time_origin_ns", "velocity_from_positions"]
+           "iso_utc", "listed", "local_frame", "one_fix_a_time", "parse_clock_times",
+           "relative_seconds", "seconds_of_time_text", "surface_dim", "time_origin_ns",
+           "velocity_from_positions"]
 
 
 #: Sensors whose altitudes all lie within this many metres of the origin's are on a surface
@@ -210,6 +211,37 @@ def interpolate_states(t_fix: NDArray[np.float64], states: NDArray[np.float64],
     eps = 1e-9 * max(1.0, float(np.max(np.abs(t_fix)))) if len(t_fix) else 0.0
     outside = (t < t_fix[0] - eps) | (t > t_fix[-1] + eps) if len(t_fix) else np.ones(t.shape, bool)
     return out, outside
+
+
+def listed(items: Sequence[str], most: int = 5, sep: str = "; ") -> str:
+    """Join the first ``most`` items, then say how many more there are."""
+    return sep.join(items[:most]) + (f" and {len(items) - most} more" if len(items) > most else "")
+
+
+_Fix = TypeVar("_Fix")
+
+
+def one_fix_a_time(path: object, fixes: Sequence[_Fix], key: Callable[[_Fix], Hashable | None],
+                   same: Callable[[_Fix, _Fix], bool], twice: Callable[[_Fix, _Fix], str]
+                   ) -> tuple[list[_Fix], list[tuple[_Fix, _Fix]]]:
+    """Keep one of each fix (in time order) written twice; refuse two different at one time."""
+    from .errors import MeasurementFileError
+
+    kept: list[_Fix] = []
+    repeats: list[tuple[_Fix, _Fix]] = []
+    problems: list[str] = []
+    for fix in fixes:
+        k = key(fix)
+        if kept and k is not None and key(kept[-1]) == k:
+            if same(kept[-1], fix):
+                repeats.append((fix, kept[-1]))
+            else:
+                problems.append(twice(kept[-1], fix))
+            continue
+        kept.append(fix)
+    if problems:
+        raise MeasurementFileError(path, problems)  # type: ignore[arg-type]
+    return kept, repeats
 
 
 def csv_separator(path: Path) -> str:

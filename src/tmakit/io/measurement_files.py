@@ -11,7 +11,7 @@ from ..data import MeasurementSet
 from . import csv_file, debrief, parquet_file, wide_log  # noqa: F401  (register formats)
 from .checker import COLUMN_ORDER, COLUMN_PURPOSE, FORMAT_LINE, PARQUET_METADATA_PREFIX
 from .errors import MAX_LISTED_PROBLEMS, MeasurementFileError, refuse_unreadable
-from .formats import Format, find_format, registered_formats, suffix_text
+from .formats import find_format, registered_formats, suffix_text
 
 __all__ = [
     "COLUMN_ORDER",
@@ -99,26 +99,39 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
         ("ownship", ownship), ("contact", contact), ("bearing_sigma", bearing_sigma_deg),
         ("range_sigma", range_sigma), ("frequency_sigma", frequency_sigma), ("dim", dim),
         ("ranges", ranges), ("kinds", kinds), ("window", window)) if v is not None}
-    if not isinstance(path, str | os.PathLike):
-        return _read_several([Path(p) for p in path], origin, format, given)
-    return _read_one(Path(path), origin, format, given)
+    paths = [Path(path)] if isinstance(path, str | os.PathLike) else [Path(p) for p in path]
+    if not paths:
+        raise ValueError("read_measurements: no file given")
+    return _read(paths, origin, format, given)
 
 
-def _read_one(path: Path, origin: tuple[float, float, float] | None, format: str | None,
-              options: dict[str, object]) -> MeasurementSet:
-    """Read one file by its format, with the options given."""
-    fmt = find_format(path, format, reading=True)
+def _read(paths: list[Path], origin: tuple[float, float, float] | None, format: str | None,
+          options: dict[str, object]) -> MeasurementSet:
+    """Read one file by its format, or several as one where their format's reader takes them."""
+    formats = {p: find_format(p, format, reading=True) for p in paths}
+    fmt = formats[paths[0]]
+    if len(paths) > 1 and (len({f.name if f else None for f in formats.values()}) != 1
+                           or fmt is None or fmt.read is None or not fmt.several):
+        listed = ", ".join(f"{p.name} ({f.label if f else 'unknown'})" for p, f in formats.items())
+        raise MeasurementFileError(Path(" + ".join(map(str, paths))), [
+            f"several files are read as one only for Debrief replays (.rep, .dsf); got {listed}"])
     if fmt is None or fmt.read is None:
-        shown = f"'{path.suffix}'" if path.suffix else "no suffix"
-        raise MeasurementFileError(path, [
+        shown = f"'{paths[0].suffix}'" if paths[0].suffix else "no suffix"
+        raise MeasurementFileError(paths[0], [
             f"unsupported file type ({shown}): measurement files end in "
             f"{suffix_text(registered_formats(reading=True))}"])
-    if not path.exists():
-        raise FileNotFoundError(f"{path}: no such file")
-    refuse_unreadable(path, binary=fmt.name == "parquet" or path.suffix.lower() in (
-        ".parquet", ".pq"))  # a FIFO, a device, NUL bytes in a text format: at once
-    _refuse_foreign_options(fmt, options)
-    return fmt.read(path, origin=origin, **options)
+    for p in paths:
+        if not p.exists():
+            raise FileNotFoundError(f"{p}: no such file")
+    if len(paths) == 1:  # a FIFO, a device, NUL bytes in a text format: at once
+        refuse_unreadable(paths[0], binary=fmt.name == "parquet"
+                          or paths[0].suffix.lower() in (".parquet", ".pq"))
+    foreign = sorted(set(options) - set(fmt.options))
+    if foreign:
+        shown_as = {"bearing_sigma": "bearing_sigma_deg"}
+        raise ForeignOptionError(fmt.label, [shown_as.get(n, n) for n in foreign],
+                                 [shown_as.get(n, n) for n in fmt.options])
+    return fmt.read(paths[0] if len(paths) == 1 else paths, origin=origin, **options)
 
 
 class ForeignOptionError(TypeError):
@@ -128,34 +141,6 @@ class ForeignOptionError(TypeError):
         self.label, self.foreign, self.taken = label, foreign, taken
         super().__init__(f"{label} files take no option {', '.join(foreign)} "
                          f"(they take {', '.join(taken) or 'none'})")
-
-
-def _refuse_foreign_options(fmt: Format, options: dict[str, object]) -> None:
-    """Refuse options the format's reader does not take, naming them and the ones it does."""
-    foreign = sorted(set(options) - set(fmt.options))
-    if foreign:
-        shown = {"bearing_sigma": "bearing_sigma_deg"}
-        raise ForeignOptionError(fmt.label, [shown.get(n, n) for n in foreign],
-                                 [shown.get(n, n) for n in fmt.options])
-
-
-def _read_several(paths: list[Path], origin: tuple[float, float, float] | None,
-                  format: str | None, options: dict[str, object]) -> MeasurementSet:
-    """Read several files as one, where their format's reader takes several."""
-    if len(paths) == 1:
-        return _read_one(paths[0], origin, format, options)
-    formats = {p: find_format(p, format, reading=True) for p in paths}
-    names = {f.name if f is not None else None for f in formats.values()}
-    fmt = next(iter(formats.values()))
-    if len(names) != 1 or fmt is None or fmt.read is None or not fmt.several:
-        listed = ", ".join(f"{p.name} ({f.label if f else 'unknown'})" for p, f in formats.items())
-        raise MeasurementFileError(Path(" + ".join(map(str, paths))), [
-            f"several files are read as one only for Debrief replays (.rep, .dsf); got {listed}"])
-    for p in paths:
-        if not p.exists():
-            raise FileNotFoundError(f"{p}: no such file")
-    _refuse_foreign_options(fmt, options)
-    return fmt.read(paths, origin=origin, **options)
 
 
 def write_measurements(ms: MeasurementSet, path: str | os.PathLike[str],

@@ -7,6 +7,7 @@ The sensor's positions come from the log's own columns, or from an own track joi
 from __future__ import annotations
 
 import datetime as dt
+import operator
 import os
 import re
 from dataclasses import dataclass
@@ -37,6 +38,7 @@ from .logs import (
     interpolate_states,
     iso_utc,
     local_frame,
+    one_fix_a_time,
     parse_clock_times,
     relative_seconds,
     time_origin_ns,
@@ -482,6 +484,9 @@ def read_gpx_fixes(path: str | os.PathLike[str]) -> Fixes:
                  np.array([p.longitude for p, _ in timed], float), alt, notes=notes + filled)
 
 
+_point = operator.attrgetter("latitude", "longitude", "elevation")
+
+
 def _gpx_position(p: Any) -> str:
     ele = "" if p.elevation is None else f", ele {p.elevation!r} m"
     return f"lat {p.latitude!r}, lon {p.longitude!r}{ele}"
@@ -490,29 +495,19 @@ def _gpx_position(p: Any) -> str:
 def _one_point_a_time(path: Path, timed: list[tuple[Any, str]], notes: list[str]
                       ) -> list[tuple[Any, str]]:
     """Keep one of each point written twice; refuse two different positions at one time."""
-    kept: list[tuple[Any, str]] = []
-    repeats: list[str] = []
-    problems: list[str] = []
-    for p, at in timed:  # (a time no clock gives, 1901 say, is refused by fix_problems)
-        if kept and _ns(kept[-1][0].time) == _ns(p.time) and 0 <= _ns(p.time) < LATEST_NS:
-            q, first = kept[-1]
-            if (q.latitude, q.longitude, q.elevation) == (p.latitude, p.longitude, p.elevation):
-                repeats.append(f"{at} repeats {first}")
-            else:
-                problems.append(f"{at}: two different positions at {iso_utc(_ns(p.time))}: "
-                                f"{first} ({_gpx_position(q)}) and {at} ({_gpx_position(p)}); "
-                                "a sensor is at one place at a time (two recordings in one "
-                                "file? give the one of the sensor that measured; points "
-                                "logged faster than the times' resolution? give the times "
-                                "to a fraction of a second)")
-            continue
-        kept.append((p, at))
-    if problems:
-        raise MeasurementFileError(path, problems)
+    kept, repeats = one_fix_a_time(  # (a time no clock gives, 1901 say: refused by fix_problems)
+        path, timed, lambda pa: t if 0 <= (t := _ns(pa[0].time)) < LATEST_NS else None,
+        lambda a, b: _point(a[0]) == _point(b[0]),
+        lambda a, b: f"{b[1]}: two different positions at {iso_utc(_ns(b[0].time))}: {a[1]} "
+                     f"({_gpx_position(a[0])}) and {b[1]} ({_gpx_position(b[0])}); a sensor is "
+                     "at one place at a time (two recordings in one file? give the one of the "
+                     "sensor that measured; points logged faster than the times' resolution? "
+                     "give the times to a fraction of a second)")
     if repeats:
         more = " and more" if len(repeats) > 5 else ""
         notes.append(f"note: {len(repeats)} GPX point(s) written twice (same time and position) "
-                     f"read once: {'; '.join(repeats[:5])}{more}")
+                     f"read once: {'; '.join(f'{a[1]} repeats {b[1]}' for a, b in repeats[:5])}"
+                     f"{more}")
     return kept
 
 
