@@ -259,6 +259,7 @@ def reads_logs(after: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]
         @functools.wraps(command)
         def run(*args: Any, **given: Any) -> Any:
             logs = {name: given.pop(name, None) for name in READER_OPTIONS}
+            check_ranges(logs["ranges"])
             return command(*args, logs=logs, **given)
 
         hints = typing.get_type_hints(command, include_extras=True)  # (typer reads these)
@@ -274,17 +275,10 @@ def reads_logs(after: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]
     return add
 
 
-def reader_options(format: str | None, ownship: str | None, contact: str | None,
-                   mapping: Path | None, bearing_sigma: str | None,
-                   range_sigma: float | None = None,
-                   frequency_sigma: float | None = None, *, kinds: str | None = None,
-                   ranges: str | None = None) -> dict[str, Any]:
-    """Collect the reader options of a command (None when not given)."""
+def check_ranges(ranges: str | None) -> None:
+    """Refuse a ``--ranges`` other than use or ignore."""
     if ranges is not None and ranges not in ("use", "ignore"):
         raise fail(f"--ranges {ranges!r}: expected use or ignore")
-    return {"format": format, "ownship": ownship, "contact": contact, "mapping": mapping,
-            "bearing_sigma": bearing_sigma, "range_sigma": range_sigma,
-            "frequency_sigma": frequency_sigma, "kinds": kinds, "ranges": ranges}
 
 
 def bearing_sigmas(text: str | float) -> float | dict[str, float]:

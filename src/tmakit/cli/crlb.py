@@ -27,7 +27,6 @@ from .common import (
     out,
     parse_assignments,
     read_or_fail,
-    reader_options,
     reads_logs,
     write_picture,
 )
@@ -74,7 +73,7 @@ def crlb(
         bound, warnings, meas, opts = bound_of_file(
             [Path(s) for s in sources], motion, ref_time, truth, known_nuisance,
             model_options(drift, free_exponent, propagation_speed),
-            reader_options(**logs))
+            logs)
     else:
         given = [flag for flag, value in (("--motion", motion), ("--ref-time", ref_time),
                                           ("--truth", truth),

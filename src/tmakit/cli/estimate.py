@@ -38,7 +38,6 @@ from .common import (
     print_wide,
     read_or_fail,
     read_window,
-    reader_options,
     reads_logs,
     select_window,
     window_help,
@@ -157,7 +156,7 @@ def estimate(
     model = model_options(drift, free_exponent, propagation_speed)
     more = check_solution_outputs(html, export, force, list(files), export_every, export_rb,
                                   export_name, taken=[plot], options=model, files=files)
-    options = reader_options(**logs)
+    options = logs
     meas, record_legs = read_leg_window(files, parse_origin(origin), options, (start, stop),
                                         leg, snap, turn_rate)
     meas = grouped_by_kind(meas)  # the last reference to the file's order: freed

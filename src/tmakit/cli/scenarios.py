@@ -21,13 +21,13 @@ from .common import (
     RangeSigmaOption,
     RangesOption,
     check_output,
+    check_ranges,
     fail,
     load_scenario_or_fail,
     out,
     parse_origin,
     print_wide,
     read_or_fail,
-    reader_options,
     reads_logs,
     refuse_existing,
     write_or_fail,
@@ -158,7 +158,7 @@ def show(
 ) -> None:
     """Summarise a measurement file per sensor and kind, and optionally draw it."""
     plot = check_output(plot, "--plot", force, "picture", files)
-    meas = read_or_fail(files, parse_origin(origin), **reader_options(**logs))
+    meas = read_or_fail(files, parse_origin(origin), **logs)
     meta = meas.metadata
     title = f"{' + '.join(map(str, files))}: {len(meas)} measurements"
     if "scenario" in meta:
@@ -326,10 +326,13 @@ def import_(
     for f in files:
         if not f.exists():
             raise fail(f"{f}: no such file")
-    options: dict[str, Any] = reader_options(
-        "rep" if fmt == "dsf" else fmt, ownship, contact,
-        _mapping(mapping, map_text, measure, files[0] if fmt in ("gpx", "nmea") else None),
-        bearing_sigma, range_sigma, frequency_sigma, kinds=kinds, ranges=ranges) | {"dim": dim}
+    check_ranges(ranges)
+    options: dict[str, Any] = {
+        "format": "rep" if fmt == "dsf" else fmt, "ownship": ownship, "contact": contact,
+        "mapping": _mapping(mapping, map_text, measure,
+                            files[0] if fmt in ("gpx", "nmea") else None),
+        "bearing_sigma": bearing_sigma, "range_sigma": range_sigma,
+        "frequency_sigma": frequency_sigma, "kinds": kinds, "ranges": ranges, "dim": dim}
     if fmt in ("gpx", "nmea"):
         _check_track_suffix(fmt, files[0])
         options["measurements"] = files[1]

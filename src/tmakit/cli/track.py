@@ -36,7 +36,6 @@ from .common import (
     print_wide,
     read_or_fail,
     read_window,
-    reader_options,
     reads_logs,
     select_window,
     window_help,
@@ -188,16 +187,18 @@ def track(
     check_sums(sums, filter_name, as_json, follow)
     check_units(units)
     page = check_solution_outputs(html, None, force, [*files], taken=[plot]).html
-    reading = (parse_origin(origin), dim, reader_options(**logs))
+    reading = (parse_origin(origin), dim, logs)
     options = model_options(drift, free_exponent, propagation_speed)
+    mean, sd, known = parse_prior(prior, prior_std, nuisance, init_window)
+    keywords = dict(  # of tmakit.tracking.track
+        particles=particles, prior=mean, prior_std=sd, prior_time=prior_time,
+        init_window=init_window, max_relative_std=start_std, rng=seed, options=options,
+        nuisance=known, bearing_prior=parse_bearing_prior(
+            range_prior, speed_prior, height_prior, mean is not None or init_window is not None),
+        settings=component_settings(filter_name, component, smooth or lag is not None or sums,
+                                    model_q, transition, turn_rate, turn_rate_noise))
     tracked = partial(track_files, reading=reading, window=(start, stop), q=(q, q_density),
-                      filter_name=filter_name,
-                      smooth=(smooth, lag, sums), keywords=start_keywords(
-                          (prior, prior_std, nuisance, prior_time),
-                          (range_prior, speed_prior, height_prior), init_window, start_std,
-                          (particles, seed, component, smooth or lag is not None or sums,
-                           (model_q, transition, turn_rate, turn_rate_noise)),
-                          filter_name, options))
+                      filter_name=filter_name, smooth=(smooth, lag, sums), keywords=keywords)
     update = Watch(tracked, Path(" + ".join(map(str, files))), output, plot, page, ellipses,
                    force, as_json, sensor, units, options)
     if follow:
@@ -206,21 +207,6 @@ def track(
     report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units,
                  sums, options)
     update.write(meas, tr, truth, force)
-
-
-def start_keywords(prior: tuple[str | None, str | None, str | None, float | None],
-                   bearing: tuple[str | None, float | None, str | None], init_window: int | None,
-                   start_std: float | None, filter_settings: tuple[Any, ...],
-                   filter_name: str, options: dict[str, Any]) -> dict[str, Any]:
-    """Give the keywords of :func:`tmakit.tracking.track` that ``tma track``'s options set."""
-    mean, sd, known = parse_prior(prior[0], prior[1], prior[2], init_window)
-    particles, seed, component, smoothing, imm = filter_settings
-    return dict(particles=particles, prior=mean, prior_std=sd, prior_time=prior[3],
-                init_window=init_window, max_relative_std=start_std, rng=seed,
-                options=options, nuisance=known,
-                bearing_prior=parse_bearing_prior(*bearing, mean is not None
-                                                  or init_window is not None),
-                settings=component_settings(filter_name, component, smoothing, *imm))
 
 
 def track_files(paths: list[Path], reading: tuple[Any, int | None, dict[str, Any]],

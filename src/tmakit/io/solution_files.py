@@ -178,19 +178,7 @@ def _write_kml(path: Path, answers: list[Answer], origin: tuple[float, float, fl
 
 
 def check_solution_data(path: str | Path, meas: MeasurementSet) -> None:
-    """Raise ValueError if ``meas`` cannot place a solution written to ``path`` on the Earth.
-
-    Parameters
-    ----------
-    path : str or Path
-        The solution file (``.rep`` needs clock times too).
-    meas : MeasurementSet
-
-    Raises
-    ------
-    ValueError
-        No ENU origin (latitude/longitude), or a ``.rep`` without a time origin.
-    """
+    """Refuse (ValueError) a set that cannot place a solution on the Earth (.rep: nor in time)."""
     if origin_of(meas) is None:
         raise ValueError(f"{path}: the measurements have no ENU origin (latitude/longitude): "
                          "give --origin LAT,LON[,ALT]")
