@@ -136,8 +136,6 @@ def motion_or_fail(name: str | None, ref_time: float | None, meas: Any = None) -
     """Return the motion model named by ``--motion``, errors as ``error: ...``."""
     from ..motion import Stationary, default_ref_time, motion_from_name
 
-    if ref_time is not None and not math.isfinite(ref_time):
-        raise fail(f"--ref-time {ref_time}: expected a finite time (s)")
     source = "--ref-time"
     if name is None:
         if meas is not None and "motion" in meas.metadata:

@@ -61,11 +61,8 @@ def crlb(
     --known-nuisance is given.
     """
     check_units(units)
-    if sensor_position_sigma is not None and not (math.isfinite(sensor_position_sigma)
-                                                  and sensor_position_sigma >= 0):
+    if sensor_position_sigma is not None and not sensor_position_sigma >= 0:  # (nan, inf: guard)
         raise fail(f"--sensor-position-sigma {sensor_position_sigma}: expected a distance >= 0 (m)")
-    if at is not None and not math.isfinite(at):
-        raise fail(f"--at {at}: expected a finite time (s)")
     from ..io import find_format  # the registry: a new format is a measurement file here too
 
     source = sources[0]

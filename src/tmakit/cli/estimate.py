@@ -284,11 +284,9 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
 def sensor_error_fitter(meas: Any, motion: str | None, ref_time: float | None, method: str,
                         options: dict[str, Any], sigma: float) -> Any:
     """Return the fit that accounts for sensor position errors (``--sensor-position-sigma``)."""
-    import math
-
     from ..batch.ml import estimate_with_sensor_errors
 
-    if not (math.isfinite(sigma) and sigma >= 0):
+    if not sigma >= 0:  # (nan and inf: the guard)
         raise fail(f"--sensor-position-sigma {sigma}: expected a distance >= 0 (m)")
     if method != "ml":
         raise fail(f"--sensor-position-sigma: fitted by ml only, not --method {method}")

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from .. import rules
 from ..data import MeasurementSet
-from .errors import NOTES_SEPARATOR, READER_NOTES_KEY, MeasurementFileError
+from .errors import MeasurementFileError, add_reader_notes
 from .formats import Format, register_format
 from .logs import (
     KNOT,
@@ -548,10 +548,10 @@ def read_replay(path: ReplayPaths, *, origin: Sequence[float] | None = None,
     if "frequency" in kinds_:  # Debrief's frequencies are sonar tonals
         metadata["frequency_propagation_speed"] = repr(SOUND_SPEED_SEA_M_S)
         tonal_names = list(dict.fromkeys(t for t in tonals if t))
-        _note(metadata, f"note: frequencies are sonar tonals carried by sound at "
-              f"{SOUND_SPEED_SEA_M_S:g} m/s (sea water; --propagation-speed to change); "
-              f"{len(tonal_names)} tonal(s) ({listed(tonal_names)}), each with its own "
-              "unknown base frequency f0")
+        add_reader_notes(metadata, f"note: frequencies are sonar tonals carried by sound at "
+                         f"{SOUND_SPEED_SEA_M_S:g} m/s (sea water; --propagation-speed to "
+                         f"change); {len(tonal_names)} tonal(s) ({listed(tonal_names)}), each "
+                         "with its own unknown base frequency f0")
     raw = MeasurementSet.from_si(
         np.array(times), _sensor_ids(cuts.host, names, kinds_, metadata), np.array(kinds_),
         np.array(values),
@@ -616,17 +616,12 @@ def _sensor_ids(host: str, names: list[str], kinds: list[str],
         return np.full(len(names), host)
     told = list(dict.fromkeys(names))
     ids = listed([f"{host}/{n}" for n in told])
-    _note(metadata, f"note: {len(told)} sensors of own ship {host!r} ({listed(told)}) measure "
-          f"{' and '.join(shared)}: each is a sensor of its own ({ids}), at the positions its "
-          "cuts state, else the own ship's (a sensor set apart, a towed array astern, needs its "
-          "positions in its cuts), and their cuts are fitted together (--contact NAME fits one)")
+    add_reader_notes(metadata, f"note: {len(told)} sensors of own ship {host!r} ({listed(told)}) "
+                     f"measure {' and '.join(shared)}: each is a sensor of its own ({ids}), at "
+                     "the positions its cuts state, else the own ship's (a sensor set apart, a "
+                     "towed array astern, needs its positions in its cuts), and their cuts are "
+                     "fitted together (--contact NAME fits one)")
     return np.array([f"{host}/{n}" for n in names])
-
-
-def _note(metadata: dict[str, str], note: str) -> None:
-    """Add a note to the set's reader notes."""
-    old = metadata.get(READER_NOTES_KEY)
-    metadata[READER_NOTES_KEY] = note if not old else NOTES_SEPARATOR.join((old, note))
 
 
 def _one_run_per_sensor(rows: list[SensorLine], parsed: ParsedReplay, host: str,
@@ -751,8 +746,7 @@ def _metadata(paths: list[Path], cuts: _Cuts, contact: str | None, sig: dict[str
                                            or s.frequency_accuracy is not None
                                            for s in cuts.rows)),
                 "ambiguous_bearings": str(ambiguous)}
-    if notes:
-        metadata[READER_NOTES_KEY] = NOTES_SEPARATOR.join(notes)
+    add_reader_notes(metadata, *notes)
     return metadata
 
 

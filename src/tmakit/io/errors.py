@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["MAX_LISTED_PROBLEMS", "NOTES_SEPARATOR", "READER_NOTES_KEY", "MeasurementFileError",
-           "reader_notes"]
+           "add_reader_notes", "reader_notes"]
 
 #: At most this many problems are listed in a :class:`MeasurementFileError` message.
 MAX_LISTED_PROBLEMS = 25
@@ -57,6 +57,12 @@ def reader_notes(metadata: dict[str, str], pop: bool = False) -> list[str]:
     """Return a set's reader notes (``note: ...`` or ``warning: ...``), optionally removing them."""
     text = metadata.pop(READER_NOTES_KEY, "") if pop else metadata.get(READER_NOTES_KEY, "")
     return [n for n in text.split(NOTES_SEPARATOR) if n]
+
+
+def add_reader_notes(metadata: dict[str, str], *notes: str) -> None:
+    """Add notes to a set's reader notes (kept in the metadata under :data:`READER_NOTES_KEY`)."""
+    if every := [*reader_notes(metadata), *notes]:
+        metadata[READER_NOTES_KEY] = NOTES_SEPARATOR.join(every)
 
 
 def refuse_unreadable(path: Path, binary: bool = False) -> None:

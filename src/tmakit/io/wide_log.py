@@ -21,7 +21,7 @@ from .. import rules
 from ..data import MeasurementSet
 from ..measurements import KINDS
 from .checker import FORMAT_LINE
-from .errors import NOTES_SEPARATOR, READER_NOTES_KEY, MeasurementFileError, refuse_unreadable
+from .errors import MeasurementFileError, add_reader_notes, refuse_unreadable
 from .formats import Format, register_format
 from .logs import (
     KNOT,
@@ -198,8 +198,7 @@ def _states(tab: _Table, m: LogMapping, t_ns: NDArray[np.int64], origin: Any, di
             states = _track_states(tab, track, frame, t, t0, m.velocity_window)
             meta["velocity_source"] = ("the track's speed and course over the ground"
                                        if track.velocity is not None else _derived(m))
-            if track.notes:
-                meta[READER_NOTES_KEY] = NOTES_SEPARATOR.join(track.notes)
+            add_reader_notes(meta, *track.notes)
             return states, meta, t0
         assert fixes is not None
         pos = frame.enu(fixes.lat, fixes.lon, fixes.alt)
@@ -370,8 +369,7 @@ def _column_sensors(m: LogMapping, metadata: dict[str, str]) -> dict[str, str]:
                 f"({', '.join(s.column for s in shared)}): each is a sensor of its own on the "
                 f"same platform ({', '.join(f'{base}/{s.column}' for s in shared)}), fitted "
                 "together; a measurement's sensor key names it")
-        old = metadata.get(READER_NOTES_KEY)
-        metadata[READER_NOTES_KEY] = note if not old else NOTES_SEPARATOR.join((old, note))
+        add_reader_notes(metadata, note)
         prefix = "" if m.sensor_column else f"{m.sensor}/"  # a sensor column's ids prefix them
         named.update({s.column: prefix + s.column for s in shared})
     return named
