@@ -159,10 +159,7 @@ class Problems:
     def bad_rows(self, *columns: str) -> NDArray[np.bool_]:
         """Mark the rows with a problem in one of ``columns``."""
         mask = np.zeros(len(self.raw.frame), dtype=bool)
-        wanted = set(columns)
-        for row, column in self.cells:
-            if column in wanted:
-                mask[row] = True
+        mask[[row for row, column in self.cells if column in columns]] = True
         return mask
 
     def sorted(self) -> list[str]:
@@ -193,25 +190,18 @@ def is_blank(v: Any) -> bool:
 
 def show(v: Any) -> str:
     """Format a cell value for "found ..." in messages."""
-    if v is None or (isinstance(v, str) and v.strip() == ""):
-        return "an empty cell"
+    if is_blank(v):
+        return "an empty cell (NaN)" if isinstance(v, float | np.floating) else "an empty cell"
     if isinstance(v, str):
         try:
             float(v)
         except ValueError:
             return repr(v)
         return v.strip()
-    if isinstance(v, (bool, np.bool_)):
+    if isinstance(v, bool | np.bool_):
         return repr(bool(v))
-    if isinstance(v, (float, int, np.floating, np.integer)):
-        if isinstance(v, (float, np.floating)) and math.isnan(v):
-            return "an empty cell (NaN)"
+    if isinstance(v, float | int | np.floating | np.integer):
         return number_text(float(v))
-    try:
-        if v != v:
-            return "an empty cell"
-    except (TypeError, ValueError):
-        pass
     return repr(v)
 
 
@@ -231,10 +221,7 @@ def text_column(series: pd.Series) -> NDArray[np.object_]:
     if isinstance(series.dtype, pd.StringDtype):  # one str object per distinct id, shared
         codes, uniques = pd.factorize(series.fillna(""))
         return np.asarray(uniques, dtype=object)[codes]
-    out = np.empty(len(series), dtype=object)
-    for i, v in enumerate(series.tolist()):
-        out[i] = "" if is_blank(v) else str(v)
-    return out
+    return np.array(["" if is_blank(v) else str(v) for v in series.tolist()], dtype=object)
 
 
 #: How a caller of the library gives the ENU origin (the command line replaces it with its flag).
