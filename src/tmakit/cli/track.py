@@ -815,15 +815,10 @@ class _Source:
         """Give the bytes that arrived since the last look (whole lines and a partial tail)."""
         if self.lines is not None:
             got = []
-            while True:
-                try:
-                    item = self.lines.get_nowait()
-                except queue.Empty:
-                    break
-                if item is None:
-                    self.ended = True
-                    break
-                got.append(item)
+            while not self.ended and not self.lines.empty():  # (this thread alone takes)
+                item = self.lines.get_nowait()
+                self.ended = item is None  # the end of input
+                got.append(item or b"")
             return b"".join(got)
         try:
             size = self.path.stat().st_size

@@ -166,10 +166,8 @@ class LogMapping(_Strict):
 
 
 def _explain(source: str, err: ValidationError) -> MappingError:
-    lines = []
-    for e in err.errors():
-        where = ".".join(str(p) for p in e["loc"]) or "(top level)"
-        lines.append(f"  - {where}: {e['msg'].removeprefix('Value error, ')}")
+    lines = [f"  - {'.'.join(str(p) for p in e['loc']) or '(top level)'}: "
+             f"{e['msg'].removeprefix('Value error, ')}" for e in err.errors()]
     return MappingError(f"{source}: the column mapping is not valid:\n" + "\n".join(lines))
 
 
