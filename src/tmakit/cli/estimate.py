@@ -181,12 +181,13 @@ def estimate(
                    factors=factors, plot=(plot, " + ".join(map(str, files)), model), more=more)
 
 
-def manoeuvre_warnings(meas: Any, result: Any, options: dict[str, Any]) -> list[Any]:
+def manoeuvre_warnings(meas: Any, result: Any, options: dict[str, Any] | None, **words: str
+                       ) -> list[Any]:
     """Warn when a cv2d fit hides a target manoeuvre (:mod:`tmakit.batch.leg_change`)."""
     from ..batch.leg_change import leg_change_warning
 
     with failing():
-        found = leg_change_warning(meas, result, options)
+        found = leg_change_warning(meas, result, options, **words)
     return [] if found is None else [found]
 
 

@@ -51,6 +51,7 @@ from .estimate import (
     answer_or_fail,
     check_solution_outputs,
     check_units,
+    manoeuvre_warnings,
     print_answers,
     print_warnings,
     sides_for_filter,
@@ -398,19 +399,15 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
 def start_manoeuvre_warnings(tr: Any, meas: Any, options: dict[str, Any] | None) -> list[Any]:
     """Warn when the batch start's window hides a target manoeuvre (``target-manoeuvre``)."""
     from .. import tracking
-    from ..batch.leg_change import leg_change_warning
 
     start = tracking.start_record(tr)
     if not isinstance(start, tracking.BatchStart):
         return []
-    window = meas.take(meas.time <= start.time)
-    with failing():
-        found = leg_change_warning(window, start.estimate, options, subject=(
-            f"the track's batch start (a constant-velocity fit over its first {start.window} "
-            "measurement times, from which the filter goes on)"), advice=(
-            "start inside one leg (--init-window with fewer times, or --prior) or let the "
-            "filter follow manoeuvres (--q)"))
-    return [] if found is None else [found]
+    return manoeuvre_warnings(meas.take(meas.time <= start.time), start.estimate, options, subject=(
+        f"the track's batch start (a constant-velocity fit over its first {start.window} "
+        "measurement times, from which the filter goes on)"), advice=(
+        "start inside one leg (--init-window with fewer times, or --prior) or let the "
+        "filter follow manoeuvres (--q)"))
 
 
 def track_trust(tr: Any, warnings: list[Any]) -> Any:
