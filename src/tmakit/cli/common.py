@@ -484,8 +484,8 @@ _FORMATS = {"picture": PICTURE_SUFFIXES, "table": TABLE_SUFFIXES, "json": None,
             "measurements": None, "page": PAGE_SUFFIXES, "solution": SOLUTION_SUFFIXES}
 
 
-def check_output(path: Path | None, option: str, force: bool, kind: str = "table",
-                 inputs: Iterable[Path] = ()) -> Path | None:
+def check_output(path: Path | None, option: str, force: bool, kind: str = "table"
+                 ) -> Path | None:
     """Resolve and check one output path before any computation."""
     if path is None:
         return None
@@ -516,7 +516,7 @@ def check_output(path: Path | None, option: str, force: bool, kind: str = "table
     if not os.access(parent, os.W_OK | os.X_OK):
         raise fail(f"{option} {path}: the folder {parent} cannot be written")
     if path.exists():
-        for source in [*inputs, *_command_inputs(given)]:
+        for source in _command_inputs(given):
             if Path(source).is_file() and _same_file(Path(source), path):
                 raise fail(f"{option} {path}: is the input file {source} of this command; it "
                            "is never written over, --force or not: write to another file")
@@ -556,14 +556,13 @@ def _command_inputs(given: object) -> list[Path]:
     return named
 
 
-def check_outputs(outputs: Iterable[tuple[str, Path | None, str]], force: bool,
-                  inputs: Iterable[Path] = ()) -> list[Path | None]:
+def check_outputs(outputs: Iterable[tuple[str, Path | None, str]], force: bool
+                  ) -> list[Path | None]:
     """Check several outputs (:func:`check_output`) and refuse two options naming one file."""
     resolved: list[Path | None] = []
     seen: dict[Path, str] = {}
-    inputs = list(inputs)
     for option, path, kind in outputs:
-        p = check_output(path, option, force, kind, inputs)
+        p = check_output(path, option, force, kind)
         if p is not None:
             key = p.resolve()
             if key in seen:

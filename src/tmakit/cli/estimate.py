@@ -152,12 +152,11 @@ def estimate(
     Own-ship legs, turn cuts and towed-array ambiguity: docs/analyst.md.
     """
     check_units(units)
-    plot = check_output(plot, "--plot", force, "picture", files)
+    plot = check_output(plot, "--plot", force, "picture")
     model = model_options(drift, free_exponent, propagation_speed)
     more = check_solution_outputs(html, export, force, list(files), export_every, export_rb,
-                                  export_name, taken=[plot], options=model, files=files)
-    options = logs
-    meas, record_legs = read_leg_window(files, parse_origin(origin), options, (start, stop),
+                                  export_name, taken=[plot], options=model)
+    meas, record_legs = read_leg_window(files, parse_origin(origin), logs, (start, stop),
                                         leg, snap, turn_rate)
     meas = grouped_by_kind(meas)  # the last reference to the file's order: freed
     check_exports(more.exports, meas)
@@ -694,26 +693,24 @@ class SolutionOutputs:
 
 
 def check_solution_outputs(html: Path | None, exports: list[Path] | None, force: bool,
-                           inputs: list[Path], every: float = 60.0,
+                           files: list[Path], every: float = 60.0,
                            range_bearing: bool = False, name: str | None = None,
                            taken: list[Path | None] | None = None,
-                           options: dict[str, Any] | None = None,
-                           files: list[Path] | None = None) -> SolutionOutputs:
+                           options: dict[str, Any] | None = None) -> SolutionOutputs:
     """Check ``--html`` and ``--export`` before any work."""
     if not every > 0:
         raise fail(f"--export-every {every:g}: expected seconds > 0")
     if range_bearing and not any(Path(p).suffix.lower() == ".rep" for p in exports or []):
         raise fail("--export-rb adds ;TMA_RB: lines to a .rep export: give --export FILE.rep")
     checked = check_outputs([("--html", html, "page"),
-                             *(("--export", p, "solution") for p in exports or [])],
-                            force, inputs)
+                             *(("--export", p, "solution") for p in exports or [])], force)
     plots = {Path(p).resolve() for p in taken or [] if p is not None}
     for option, p in zip(["--html", *["--export"] * len(exports or [])], checked, strict=True):
         if p is not None and p.resolve() in plots:
             raise fail(f"{option} {p}: the same file as --plot")
     return SolutionOutputs(html=checked[0], exports=[p for p in checked[1:] if p is not None],
                            every=every, range_bearing=range_bearing, name=name, force=force,
-                           title=" + ".join(map(str, files or inputs)),
+                           title=" + ".join(map(str, files)),
                            options=dict(options or {}))
 
 

@@ -157,7 +157,7 @@ def show(
     *, logs: dict[str, Any],
 ) -> None:
     """Summarise a measurement file per sensor and kind, and optionally draw it."""
-    plot = check_output(plot, "--plot", force, "picture", files)
+    plot = check_output(plot, "--plot", force, "picture")
     meas = read_or_fail(files, parse_origin(origin), **logs)
     meta = meas.metadata
     title = f"{' + '.join(map(str, files))}: {len(meas)} measurements"
@@ -321,8 +321,7 @@ def import_(
         raise fail(f"import {fmt} takes {what}; got {len(files)} file(s)")
     if dim not in (None, 2, 3):
         raise fail(f"--dim {dim}: expected 2 or 3")
-    check_output(output, "-o", force, "measurements",
-                 [*files, *([mapping] if mapping is not None else [])])
+    check_output(output, "-o", force, "measurements")
     for f in files:
         if not f.exists():
             raise fail(f"{f}: no such file")

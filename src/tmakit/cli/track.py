@@ -8,7 +8,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from functools import partial
 from pathlib import Path
 from typing import Annotated, Any, BinaryIO
@@ -184,7 +184,7 @@ def track(
     With --html, the solution page of the batch estimate (constant velocity) of the data.
     """
     output, plot = check_track_options(output, plot, force, filter_name, particles, seed,
-                                       ellipses, rows, (*files, logs["mapping"]))
+                                       ellipses, rows)
     check_sums(sums, filter_name, as_json, follow)
     check_units(units)
     page = check_solution_outputs(html, None, force, [*files], taken=[plot]).html
@@ -737,8 +737,7 @@ def tracking_failure(e: Any) -> typer.Exit:
 
 def check_track_options(output: Path | None, plot: Path | None, force: bool,
                         filter_name: str, particles: int | None, seed: int | None,
-                        ellipses: int, rows: int, inputs: Sequence[object] = ()
-                        ) -> tuple[Path | None, Path | None]:
+                        ellipses: int, rows: int) -> tuple[Path | None, Path | None]:
     """Refuse bad ``tma track`` options before reading the file."""
     from .. import tracking
     from ..filters import FILTERS
@@ -748,8 +747,7 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
         raise fail(f"--particles {particles}: a cloud of fewer than {MIN_PARTICLES} particles "
                    "cannot span the target's state (4 or 6 values), so its covariance is "
                    "singular; use hundreds or more")
-    output, plot = check_outputs([("-o", output, "table"), ("--plot", plot, "picture")], force,
-                                 [p for p in inputs if isinstance(p, Path)])
+    output, plot = check_outputs([("-o", output, "table"), ("--plot", plot, "picture")], force)
     if filter_name not in FILTERS:
         raise fail(f"--filter {filter_name!r}: expected one of {', '.join(sorted(FILTERS))}")
     random_filters = tracking.random_filters()
