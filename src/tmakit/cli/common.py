@@ -629,13 +629,12 @@ def memory_limit() -> int:
     return int(max(gb, 0.001) * 2**30)
 
 
-def check_particles(particles: int | None, option: str = "--particles",
-                    bytes_per_particle: int = 8 * 8 * 8) -> None:
-    """Refuse a particle count whose working arrays would not fit the memory limit."""
+def check_particles(particles: int | None) -> None:
+    """Refuse a particle count whose working arrays (8 x 8 doubles each) would not fit memory."""
     if particles is None:
         return
-    need = particles * bytes_per_particle
+    need = particles * 8 * 8 * 8
     if need > memory_limit():
-        raise fail(f"{option} {particles:,}: about {need / 2**30:.1f} GiB of working memory, "
+        raise fail(f"--particles {particles:,}: about {need / 2**30:.1f} GiB of working memory, "
                    f"more than the limit of {memory_limit() / 2**30:.1f} GiB; raise it with "
                    "TMA_MAX_MEMORY_GB=N")

@@ -117,8 +117,7 @@ def surface_dim(alt: NDArray[np.float64], origin_alt: float, dim: int | None,
 
 
 def local_frame(fixes: Sequence[Fixes], origin: Sequence[float] | None, dim: int | None,
-                altitude_reference: str = "ellipsoid",
-                tolerance: float = SURFACE_TOLERANCE_M) -> LocalFrame:
+                altitude_reference: str = "ellipsoid") -> LocalFrame:
     """Build a log's frame: the origin (default the first fix) and the surface rule."""
     if altitude_reference not in ALTITUDE_REFERENCES:
         raise ValueError(f"altitude reference {altitude_reference!r}: expected one of "
@@ -146,7 +145,7 @@ def local_frame(fixes: Sequence[Fixes], origin: Sequence[float] | None, dim: int
         if not ok.all():
             raise ValueError(f"origin {origin!r}: expected {expected}, found {value!r}")
     alts = np.concatenate([np.asarray(f.alt, float) for f in fixes]) if fixes else np.zeros(0)
-    d, rule = surface_dim(alts, alt0, dim, tolerance)
+    d, rule = surface_dim(alts, alt0, dim)
     return LocalFrame((lat0, lon0, alt0), altitude_reference, d, rule, source)
 
 
