@@ -107,20 +107,6 @@ class PiecewiseCurvilinear(MotionModel):
         self.param_names = _param_names(self.manoeuvres)
         self.name = f"curvilinear:{self.manoeuvres}"
 
-    def accel_index(self, segment: int) -> tuple[int, int]:
-        """Give the indices of ``at_segment`` and ``an_segment`` in ``theta``.
-
-        Parameters
-        ----------
-        segment : int
-            0..M.
-
-        Returns
-        -------
-        tuple of int
-        """
-        return 4 + 2 * segment, 5 + 2 * segment
-
     def time_index(self, m: int) -> int:
         """Give the index of the change-over time ``t_m`` in ``theta``.
 
