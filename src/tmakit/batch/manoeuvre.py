@@ -1075,18 +1075,6 @@ class ManoeuvreEstimator(BatchEstimator):
         """Convert ``known_nuisance``."""
         object.__setattr__(self, "known_nuisance", as_known_nuisance(self.known_nuisance))
 
-    def manoeuvre_options(self) -> dict[str, object]:
-        """Collect the manoeuvre settings given (not None), by keyword.
-
-        Returns
-        -------
-        dict
-        """
-        given = {"exact": self.exact, "criterion": self.criterion, "alpha": self.alpha,
-                 "accelerations": self.accelerations, "ref_time": self.ref_time,
-                 "settings": self.settings}
-        return {k: v for k, v in given.items() if v is not None}
-
     def fit(self, meas: MeasurementSet, motion: PiecewiseCurvilinear | str  # type: ignore[override]
             ) -> EstimateResult:
         """Estimate the manoeuvring target's motion."""
