@@ -43,7 +43,7 @@ from .estimator import BatchEstimator, Init, Options, theta_from_init
 from .init import grid_start
 
 __all__ = ["GuDirect", "LectureGaussNewton", "PaperMethod", "PlanarGeometry", "RatioMethod",
-           "doppler_ratio_covariance", "nuisance_given_theta", "power_ratio_covariance"]
+           "doppler_bands", "nuisance_given_theta", "power_bands", "tridiagonal"]
 
 
 GRID_START_NOTE = "started from tmakit's likelihood-grid point (the papers' methods are local)"
@@ -597,24 +597,6 @@ def doppler_bands(nu: Array, sigma_prev: Array, sigma_cur: Array, linked: NDArra
         if nu.size > 1:
             off[:-1] = -nu[1:] * a_cur[1:] * sigma_cur[:-1] ** 2  # (1 - v_{k+1}/c)^2
     return scale * diag, np.where(linked, scale * off, 0.0)
-
-
-def power_ratio_covariance(mu: Array, r2_prev: Array, r2_cur: Array, s_prev: Array,
-                           s_cur: Array, linked: NDArray[np.bool_] | None = None,
-                           covariance: str = "derived") -> Array:
-    """Return the dense covariance of the power-ratio noise terms (Gu et al. (2007), eq. 21)."""
-    linked = chain(mu.size) if linked is None else linked
-    return tridiagonal(*power_bands(mu, r2_prev, r2_cur, s_prev, s_cur, linked, covariance))
-
-
-def doppler_ratio_covariance(nu: Array, sigma_prev: Array, sigma_cur: Array,
-                             linked: NDArray[np.bool_] | None = None,
-                             carrier: float = 1.0, v_prev: Array | None = None,
-                             v_cur: Array | None = None, covariance: str = "derived") -> Array:
-    """Return the dense covariance of the noise terms of ``c h_k`` (Gu et al. (2007), eq. 27)."""
-    linked = chain(nu.size) if linked is None else linked
-    return tridiagonal(*doppler_bands(nu, sigma_prev, sigma_cur, linked, carrier, v_prev,
-                                        v_cur, covariance))
 
 
 def chain(n: int) -> NDArray[np.bool_]:

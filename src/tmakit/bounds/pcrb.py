@@ -302,12 +302,9 @@ def _dynamics(q: float | ArrayLike, dim: int, q_density: float | ArrayLike = 0.0
         if np.ndim(value) and np.size(value) != dim:
             raise ValueError(f"{name} must be one value or {dim} values (one per axis) in "
                              f"{unit}; got {np.size(value)}")
-    values = np.ravel(np.asarray(q, dtype=np.float64))
     q_axes, density = (tuple(float(v) for v in np.broadcast_to(np.asarray(a, dtype=float), (dim,)))
                        for a in (q, q_density))
-    dynamics = NearlyConstantVelocity(dim, float(values[0]) if np.ndim(q) == 0 else tuple(
-        float(v) for v in values), density)
-    return dynamics, q_axes
+    return NearlyConstantVelocity(dim, q_axes[0] if np.ndim(q) == 0 else q_axes, density), q_axes
 
 
 def _setup(source: object, prior_mean: ArrayLike | None, prior_cov: ArrayLike,
