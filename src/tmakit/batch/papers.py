@@ -838,8 +838,7 @@ def _check(meas: MeasurementSet, motion: MotionModel) -> float:
 
 
 def _max_range(obs: ObservationModel, theta: Array) -> float:
-    rel = obs.motion.states(theta, obs.meas.time) - obs.meas.sensor_state
-    return float(np.max(np.linalg.norm(rel[:, :3], axis=1)))
+    return float(np.sqrt(np.max(obs.squared_ranges(theta))))
 
 
 def _pinv_step(hw: Array, rw: Array) -> tuple[Array, int, Array]:
