@@ -503,12 +503,10 @@ class OrderSelection:
         -------
         dict of str to object
         """
-        def clean(v: object) -> object:
-            return None if isinstance(v, float) and not math.isfinite(v) else v
-
         return {"criterion": self.criterion, "alpha": self.alpha if self.criterion == "lrt"
                 else None, "n_measurements": self.n_measurements, "chosen": self.chosen,
-                "orders": [{k: clean(v) for k, v in o.items()} for o in self.orders]}
+                "orders": [{k: finite(v) if isinstance(v, float) else v for k, v in o.items()}
+                           for o in self.orders]}
 
     def summary(self) -> str:
         """Tabulate the orders tried, one line each, the chosen one marked.
