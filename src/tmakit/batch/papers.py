@@ -61,13 +61,6 @@ def check_paper_options(method: str, options: Options) -> None:
                          "method 'ml' for another or an unknown exponent")
 
 
-def kinds_tuple(kinds: str | Sequence[str] | None) -> tuple[str, ...] | None:
-    """Convert ``kinds`` to a tuple (a single name as a 1-tuple), or None."""
-    if kinds is None:
-        return None
-    return (kinds,) if isinstance(kinds, str) else tuple(kinds)
-
-
 @dataclass(frozen=True, eq=False)
 class PaperMethod(BatchEstimator):
     """A local method of the papers, started from ``init`` or from tmakit's grid point."""
@@ -84,7 +77,8 @@ class PaperMethod(BatchEstimator):
     @property
     def kinds_wanted(self) -> tuple[str, ...] | None:
         """The kinds asked for (None: every kind the method can use)."""
-        return kinds_tuple(getattr(self, "kinds", None))
+        kinds = getattr(self, "kinds", None)
+        return None if kinds is None else (kinds,) if isinstance(kinds, str) else tuple(kinds)
 
     @abstractmethod
     def iterate(self, meas: MeasurementSet, motion: MotionModel, init: Init
@@ -177,17 +171,16 @@ def check_planar_cv(motion: MotionModel, method: str) -> ConstantVelocity:
     return motion
 
 
-def select_kinds(meas: MeasurementSet, kinds: str | Sequence[str] | None, method: str
+def select_kinds(meas: MeasurementSet, wanted: tuple[str, ...] | None, method: str
                  ) -> tuple[tuple[str, ...], MeasurementSet]:
     """Choose the kinds to use (in :data:`PAPER_KINDS` order) and the rows of those kinds."""
-    if kinds is None:
+    if wanted is None:
         other = sorted(set(meas.kinds) - set(PAPER_KINDS))
         if other:
             raise ValueError(f"{method}: uses power and frequency only, the data also hold "
                              f"{', '.join(other)}; pass kinds= or select the rows")
         chosen = [k for k in PAPER_KINDS if k in meas.kinds]
     else:
-        wanted = (kinds,) if isinstance(kinds, str) else tuple(kinds)
         for k in wanted:
             if k not in PAPER_KINDS:
                 raise ValueError(f"{method}: kind {k!r} not usable; expected power and/or "
@@ -428,7 +421,7 @@ class GuDirect(PaperMethod):
         """Run the iteration of Gu et al. (2007) §3 (eqs. 7, 8, 12, 16) from ``init``."""
         method = self.name
         cv = check_planar_cv(motion, method)
-        kinds_used, sub = select_kinds(meas, self.kinds, method)
+        kinds_used, sub = select_kinds(meas, self.kinds_wanted, method)
         theta = initial_theta(motion, init, method)
         system = _DirectSystem(sub, cv, kinds_used, self.c0)
         history: dict[str, list[float]] = {"condition_numbers": [],
@@ -745,7 +738,7 @@ class RatioMethod(PaperMethod):
                 ) -> EstimateResult:
         """Run the iteration of Gu et al. (2007) §4 (eqs. 19-34) from ``init``."""
         cv = check_planar_cv(motion, "ratio method")
-        kinds_used, sub = select_kinds(meas, self.kinds, "ratio method")
+        kinds_used, sub = select_kinds(meas, self.kinds_wanted, "ratio method")
         theta = initial_theta(motion, init, "ratio method")
         system = _RatioSystem(sub, cv, kinds_used, self.covariance)
         if system.n < motion.n_params:
