@@ -107,11 +107,10 @@ def test_constant_velocity_jacobian_and_reference(dim, data, ref_time, t):
     np.testing.assert_array_equal(at_ref[:dim], theta[:dim])
     np.testing.assert_array_equal(at_ref[3:3 + dim], theta[dim:])
 
-    # the same trajectory referenced at another time
+    # the same trajectory referenced at another time, from its state then
     new_ref = data.draw(TIME, label="new_ref")
-    theta_before = theta.copy()
-    theta_new = model.at_reference_time(theta, new_ref)
-    np.testing.assert_array_equal(theta, theta_before)  # the input is not modified
+    theta_new = ConstantVelocity(dim, new_ref).from_state(model.states(theta, [new_ref])[0],
+                                                          new_ref)
     np.testing.assert_allclose(ConstantVelocity(dim, new_ref).states(theta_new, t), states,
                                rtol=1e-12, atol=1e-8)
     np.testing.assert_allclose(theta_new[:dim], model.states(theta, [new_ref])[0, :dim],
@@ -598,10 +597,11 @@ def test_an_unknown_name_is_refused_alike(hoerst_file):
 
 @pytest.mark.parametrize("motion", [ConstantVelocity(2, ref_time=3.0), ConstantVelocity(3),
                                     Stationary(2)], ids=lambda m: m.name)
-def test_component_map_is_the_affine_map_component_major(motion):
+def test_component_terms_give_the_states(motion):
     t = np.linspace(-5.0, 50.0, 7)
-    offset, matrix = motion.affine_map(t)
-    cm_matrix, cm_offset = motion.component_map(t)
-    assert cm_matrix.flags.c_contiguous and cm_offset.flags.c_contiguous
-    assert np.array_equal(cm_matrix, matrix.transpose(2, 1, 0))
-    assert np.array_equal(cm_offset, offset.T)
+    terms, offset = motion.component_terms(t)
+    theta = np.arange(1.0, motion.n_params + 1.0)
+    states = np.array(offset, dtype=float)
+    for i, c, coef in terms:
+        states[c] += theta[i] * (1.0 if coef is None else coef)
+    assert np.allclose(states.T, motion.states(theta, t), rtol=1e-14, atol=1e-12)

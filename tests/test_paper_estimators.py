@@ -15,8 +15,10 @@ from tmakit.batch.papers import (
     LectureGaussNewton,
     PlanarGeometry,
     RatioMethod,
-    doppler_ratio_covariance,
-    power_ratio_covariance,
+    chain,
+    doppler_bands,
+    power_bands,
+    tridiagonal,
 )
 from tmakit.bounds import crlb
 from tmakit.core.units import SPEED_OF_LIGHT
@@ -90,9 +92,9 @@ def test_derived_tridiagonal_covariances_match_monte_carlo(gu):
     g = r2[:-1] - mu_hat * r2[1:]                                   # eq. 21, exact noise term
     var, lag1, lag2 = bands(g)
     s = np.full(r2.size, 1.0 / snr)
-    derived = power_ratio_covariance(mu_true, r2[:-1], r2[1:], s[:-1], s[1:])
-    paper = power_ratio_covariance(mu_true, r2[:-1], r2[1:], s[:-1], s[1:],
-                                   covariance="paper")
+    linked = chain(mu_true.size)
+    derived, paper = (tridiagonal(*power_bands(mu_true, r2[:-1], r2[1:], s[:-1], s[1:], linked,
+                                               how)) for how in ("derived", "paper"))
     assert np.max(np.abs(var / np.diag(derived) - 1)) < 0.10
     assert np.max(np.abs(lag1 / np.diag(derived, 1) - 1)) < 0.10
     assert np.max(np.abs(lag2)) < 0.05                      # tri-diagonal indeed
@@ -110,9 +112,9 @@ def test_derived_tridiagonal_covariances_match_monte_carlo(gu):
     ch = v[1:] - nu_hat * v[:-1] - (fh[:, :-1] - fh[:, 1:]) / fh[:, :-1] * SPEED_OF_LIGHT
     var, lag1, lag2 = bands(ch)
     sig = np.full(f.size, sigma)
-    derived = doppler_ratio_covariance(f[1:] / f[:-1], sig[:-1], sig[1:], carrier=1.9e9)
-    paper = doppler_ratio_covariance(f[1:] / f[:-1], sig[:-1], sig[1:], carrier=1.9e9,
-                                     v_prev=v[:-1], v_cur=v[1:], covariance="paper")
+    nu, linked = f[1:] / f[:-1], chain(f.size - 1)
+    derived, paper = (tridiagonal(*doppler_bands(nu, sig[:-1], sig[1:], linked, 1.9e9, v[:-1],
+                                                 v[1:], how)) for how in ("derived", "paper"))
     assert np.max(np.abs(var / np.diag(derived) - 1)) < 0.10
     assert np.max(np.abs(lag1 / np.diag(derived, 1) - 1)) < 0.10
     assert np.max(np.abs(lag2)) < 0.05

@@ -118,13 +118,16 @@ def _chained_model_jacobians(obs, thetas, nu):
     return out
 
 
-def test_constant_velocity_affine_map_gives_the_states():
+def test_constant_velocity_component_terms_give_the_states():
     cv = tk.ConstantVelocity(3, ref_time=10.0)
     t = np.linspace(0.0, 100.0, 7)
-    offset, matrix = cv.affine_map(t)
+    terms, offset = cv.component_terms(t)
     theta = np.array([100.0, -2000.0, 300.0, 12.0, -7.0, 0.5])
-    np.testing.assert_allclose(offset + matrix @ theta, cv.states(theta, t), rtol=1e-14)
-    assert PiecewiseCurvilinear(0).affine_map(t) is None
+    states = np.array(offset, dtype=float)
+    for i, c, coef in terms:
+        states[c] += theta[i] * (1.0 if coef is None else coef)
+    np.testing.assert_allclose(states.T, cv.states(theta, t), rtol=1e-14)
+    assert PiecewiseCurvilinear(0).component_terms(t) is None
 
 
 @pytest.fixture(scope="module")

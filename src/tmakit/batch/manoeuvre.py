@@ -181,23 +181,15 @@ def split_segment(theta: Array, m_prev: int, j: int, t_new: Array) -> Array:
 
 def local_minima(tuples: NDArray[np.int64], cost: Array) -> NDArray[np.int64]:
     """Find the rows of ``tuples`` that are local minima of the cost, best first."""
-    where = {tuple(t): i for i, t in enumerate(tuples)}
-    keep = []
-    for i, t in enumerate(tuples):
-        if not np.isfinite(cost[i]):
-            continue
-        ok = True
-        for k in range(tuples.shape[1]):
-            for d in (-1, 1):
-                nb = list(t)
-                nb[k] += d
-                other = where.get(tuple(nb))
-                if other is not None and cost[other] < cost[i]:
-                    ok = False
-        if ok:
-            keep.append(i)
-    keep_arr = np.array(keep, dtype=np.int64)
-    return keep_arr[np.argsort(cost[keep_arr])] if keep_arr.size else keep_arr
+    where = {tuple(t): i for i, t in enumerate(tuples.tolist())}
+
+    def lower_neighbour(i: int, t: list[int]) -> bool:
+        nbs = (where.get((*t[:k], t[k] + d, *t[k + 1:])) for k in range(len(t)) for d in (-1, 1))
+        return any(o is not None and cost[o] < cost[i] for o in nbs)
+
+    keep = np.array([i for i, t in enumerate(tuples.tolist())
+                     if np.isfinite(cost[i]) and not lower_neighbour(i, t)], dtype=np.int64)
+    return keep[np.argsort(cost[keep])] if keep.size else keep
 
 
 def lm_fit(problem: VarProProblem, theta0: Array, free: NDArray[np.bool_], max_iter: int,
@@ -511,12 +503,10 @@ class OrderSelection:
         -------
         dict of str to object
         """
-        def clean(v: object) -> object:
-            return None if isinstance(v, float) and not math.isfinite(v) else v
-
         return {"criterion": self.criterion, "alpha": self.alpha if self.criterion == "lrt"
                 else None, "n_measurements": self.n_measurements, "chosen": self.chosen,
-                "orders": [{k: clean(v) for k, v in o.items()} for o in self.orders]}
+                "orders": [{k: finite(v) if isinstance(v, float) else v for k, v in o.items()}
+                           for o in self.orders]}
 
     def summary(self) -> str:
         """Tabulate the orders tried, one line each, the chosen one marked.
@@ -732,12 +722,8 @@ def _hold_chain(search: ManoeuvreSearch, current: OrderFit, free: NDArray[np.boo
 
 def _refit(search: ManoeuvreSearch, fits: list[OrderFit]) -> list[OrderFit]:
     """Refit to convergence the sparser patterns the elimination looked at and left."""
-    out = []
-    for f in fits:
-        r = search.fit_from(f.manoeuvres, f.theta[None], f.free_mask())
-        if r.converged and np.isfinite(r.chi2):
-            out.append(r)
-    return out
+    refits = (search.fit_from(f.manoeuvres, f.theta[None], f.free_mask()) for f in fits)
+    return [r for r in refits if r.converged and np.isfinite(r.chi2)]
 
 
 @dataclass
@@ -1074,18 +1060,6 @@ class ManoeuvreEstimator(BatchEstimator):
     def __post_init__(self) -> None:
         """Convert ``known_nuisance``."""
         object.__setattr__(self, "known_nuisance", as_known_nuisance(self.known_nuisance))
-
-    def manoeuvre_options(self) -> dict[str, object]:
-        """Collect the manoeuvre settings given (not None), by keyword.
-
-        Returns
-        -------
-        dict
-        """
-        given = {"exact": self.exact, "criterion": self.criterion, "alpha": self.alpha,
-                 "accelerations": self.accelerations, "ref_time": self.ref_time,
-                 "settings": self.settings}
-        return {k: v for k, v in given.items() if v is not None}
 
     def fit(self, meas: MeasurementSet, motion: PiecewiseCurvilinear | str  # type: ignore[override]
             ) -> EstimateResult:

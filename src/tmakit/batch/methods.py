@@ -101,13 +101,8 @@ class MLByMotion(BatchEstimator):
         given = (("exact", exact), ("criterion", criterion), ("alpha", alpha),
                  ("accelerations", accelerations), ("ref_time", ref_time),
                  ("settings", settings))
-        # (the ManoeuvreEstimator made only for a manoeuvring target: see manoeuvre)
+        # (a ManoeuvreEstimator is made in fit, for a manoeuvring target only)
         self._manoeuvre_options: dict[str, Any] = {k: v for k, v in given if v is not None}
-
-    @property
-    def manoeuvre(self) -> ManoeuvreEstimator:
-        """The manoeuvre settings given (None: not given, the estimator's default)."""
-        return ManoeuvreEstimator(**self._manoeuvre_options)
 
     def __repr__(self) -> str:
         """Return the constructor call that makes this estimator."""

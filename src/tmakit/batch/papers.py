@@ -43,7 +43,7 @@ from .estimator import BatchEstimator, Init, Options, theta_from_init
 from .init import grid_start
 
 __all__ = ["GuDirect", "LectureGaussNewton", "PaperMethod", "PlanarGeometry", "RatioMethod",
-           "doppler_ratio_covariance", "nuisance_given_theta", "power_ratio_covariance"]
+           "doppler_bands", "nuisance_given_theta", "power_bands", "tridiagonal"]
 
 
 GRID_START_NOTE = "started from tmakit's likelihood-grid point (the papers' methods are local)"
@@ -59,13 +59,6 @@ def check_paper_options(method: str, options: Options) -> None:
     if exponent is None or float(exponent) != 2.0:  # type: ignore[arg-type]
         raise ValueError(f"{method}: the paper's model has the path-loss exponent 2; use "
                          "method 'ml' for another or an unknown exponent")
-
-
-def kinds_tuple(kinds: str | Sequence[str] | None) -> tuple[str, ...] | None:
-    """Convert ``kinds`` to a tuple (a single name as a 1-tuple), or None."""
-    if kinds is None:
-        return None
-    return (kinds,) if isinstance(kinds, str) else tuple(kinds)
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,7 +77,8 @@ class PaperMethod(BatchEstimator):
     @property
     def kinds_wanted(self) -> tuple[str, ...] | None:
         """The kinds asked for (None: every kind the method can use)."""
-        return kinds_tuple(getattr(self, "kinds", None))
+        kinds = getattr(self, "kinds", None)
+        return None if kinds is None else (kinds,) if isinstance(kinds, str) else tuple(kinds)
 
     @abstractmethod
     def iterate(self, meas: MeasurementSet, motion: MotionModel, init: Init
@@ -177,17 +171,16 @@ def check_planar_cv(motion: MotionModel, method: str) -> ConstantVelocity:
     return motion
 
 
-def select_kinds(meas: MeasurementSet, kinds: str | Sequence[str] | None, method: str
+def select_kinds(meas: MeasurementSet, wanted: tuple[str, ...] | None, method: str
                  ) -> tuple[tuple[str, ...], MeasurementSet]:
     """Choose the kinds to use (in :data:`PAPER_KINDS` order) and the rows of those kinds."""
-    if kinds is None:
+    if wanted is None:
         other = sorted(set(meas.kinds) - set(PAPER_KINDS))
         if other:
             raise ValueError(f"{method}: uses power and frequency only, the data also hold "
                              f"{', '.join(other)}; pass kinds= or select the rows")
         chosen = [k for k in PAPER_KINDS if k in meas.kinds]
     else:
-        wanted = (kinds,) if isinstance(kinds, str) else tuple(kinds)
         for k in wanted:
             if k not in PAPER_KINDS:
                 raise ValueError(f"{method}: kind {k!r} not usable; expected power and/or "
@@ -428,7 +421,7 @@ class GuDirect(PaperMethod):
         """Run the iteration of Gu et al. (2007) §3 (eqs. 7, 8, 12, 16) from ``init``."""
         method = self.name
         cv = check_planar_cv(motion, method)
-        kinds_used, sub = select_kinds(meas, self.kinds, method)
+        kinds_used, sub = select_kinds(meas, self.kinds_wanted, method)
         theta = initial_theta(motion, init, method)
         system = _DirectSystem(sub, cv, kinds_used, self.c0)
         history: dict[str, list[float]] = {"condition_numbers": [],
@@ -599,24 +592,6 @@ def doppler_bands(nu: Array, sigma_prev: Array, sigma_cur: Array, linked: NDArra
     return scale * diag, np.where(linked, scale * off, 0.0)
 
 
-def power_ratio_covariance(mu: Array, r2_prev: Array, r2_cur: Array, s_prev: Array,
-                           s_cur: Array, linked: NDArray[np.bool_] | None = None,
-                           covariance: str = "derived") -> Array:
-    """Return the dense covariance of the power-ratio noise terms (Gu et al. (2007), eq. 21)."""
-    linked = chain(mu.size) if linked is None else linked
-    return tridiagonal(*power_bands(mu, r2_prev, r2_cur, s_prev, s_cur, linked, covariance))
-
-
-def doppler_ratio_covariance(nu: Array, sigma_prev: Array, sigma_cur: Array,
-                             linked: NDArray[np.bool_] | None = None,
-                             carrier: float = 1.0, v_prev: Array | None = None,
-                             v_cur: Array | None = None, covariance: str = "derived") -> Array:
-    """Return the dense covariance of the noise terms of ``c h_k`` (Gu et al. (2007), eq. 27)."""
-    linked = chain(nu.size) if linked is None else linked
-    return tridiagonal(*doppler_bands(nu, sigma_prev, sigma_cur, linked, carrier, v_prev,
-                                        v_cur, covariance))
-
-
 def chain(n: int) -> NDArray[np.bool_]:
     """Return ``linked`` of one chain of ``n`` pairs: each linked to the next, the last not."""
     linked = np.ones(n, dtype=bool)
@@ -763,7 +738,7 @@ class RatioMethod(PaperMethod):
                 ) -> EstimateResult:
         """Run the iteration of Gu et al. (2007) §4 (eqs. 19-34) from ``init``."""
         cv = check_planar_cv(motion, "ratio method")
-        kinds_used, sub = select_kinds(meas, self.kinds, "ratio method")
+        kinds_used, sub = select_kinds(meas, self.kinds_wanted, "ratio method")
         theta = initial_theta(motion, init, "ratio method")
         system = _RatioSystem(sub, cv, kinds_used, self.covariance)
         if system.n < motion.n_params:
@@ -856,8 +831,7 @@ def _check(meas: MeasurementSet, motion: MotionModel) -> float:
 
 
 def _max_range(obs: ObservationModel, theta: Array) -> float:
-    rel = obs.motion.states(theta, obs.meas.time) - obs.meas.sensor_state
-    return float(np.max(np.linalg.norm(rel[:, :3], axis=1)))
+    return float(np.sqrt(np.max(obs.squared_ranges(theta))))
 
 
 def _pinv_step(hw: Array, rw: Array) -> tuple[Array, int, Array]:

@@ -29,24 +29,10 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..scenario.model import Scenario
 
 
-def whitened_jacobian(obs: ObservationModel, noise: NoiseModel, theta: ArrayLike,
-                      nuisance: ArrayLike, known_nuisance: KnownNuisanceLike = None
-                      ) -> NDArray[np.float64]:
-    """Return ``R^{-1/2} J`` with respect to the unknowns (motion, then nuisance)."""
-    j_theta, j_nu = obs.jacobian(theta, nuisance)
-    known = as_known_nuisance(known_nuisance) is not None
-    jac = j_theta if known else np.concatenate([j_theta, j_nu], axis=-1)
-    return noise.whiten(jac, axis=-2)
-
-
 def fisher_information(obs: ObservationModel, theta: ArrayLike, nuisance: ArrayLike,
-                       known_nuisance: KnownNuisanceLike = None,
-                       noise: NoiseModel | None = None) -> NDArray[np.float64]:
+                       known_nuisance: KnownNuisanceLike = None) -> NDArray[np.float64]:
     """Return the Fisher information ``J^T R^-1 J`` about the motion (and unknown nuisance), SI."""
-    if noise is None:
-        return _grouped_information(obs, obs.linearisation(theta), nuisance, known_nuisance)
-    w = whitened_jacobian(obs, noise, theta, nuisance, known_nuisance)
-    return w.T @ w
+    return _grouped_information(obs, obs.linearisation(theta), nuisance, known_nuisance)
 
 
 def _grouped_information(obs: ObservationModel, lin: Linearisation, nuisance: ArrayLike,

@@ -25,7 +25,7 @@ from .fim import bound_source, crlb, truth_vector
 if TYPE_CHECKING:  # pragma: no cover
     from ..scenario.model import Scenario
 
-_ALIASES = {"azimuth": "bearing", "azimuth_rate": "azimuth_rate", "bearing": "bearing"}
+_ALIASES = {"azimuth": "bearing"}
 
 
 @dataclass

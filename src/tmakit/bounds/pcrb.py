@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.arrays import Array
 from ..data import MeasurementSet
+from ..results.answers import finite
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..scenario.model import Scenario
@@ -158,8 +159,9 @@ class PosteriorBound:
             "time": self.times.tolist(),
             "std": self.std.tolist(),
             "position_rms": self.position_rms.tolist(),
-            "position_rms_se": _nan_to_none(self.position_rms_se),
-            "max_share": _nan_to_none(self.max_share),
+            "position_rms_se": None if self.position_rms_se is None else [
+                finite(v) for v in self.position_rms_se],
+            "max_share": None if self.max_share is None else [finite(v) for v in self.max_share],
             "covariance": self.covariance.tolist(),
             "information": self.information.tolist(),
             "notes": list(self.notes),
@@ -208,12 +210,6 @@ class PosteriorBound:
                          + ("" if se is None else f"{se[k]:10.2g}"))
         lines.extend(f"  note: {n}" for n in self.notes)
         return "\n".join(lines)
-
-
-def _nan_to_none(values: Array | None) -> list[float | None] | None:
-    if values is None:
-        return None
-    return [float(v) if np.isfinite(v) else None for v in values]
 
 
 #: Number of disjoint sets of trajectories whose separate recursions give the Monte Carlo
@@ -302,12 +298,9 @@ def _dynamics(q: float | ArrayLike, dim: int, q_density: float | ArrayLike = 0.0
         if np.ndim(value) and np.size(value) != dim:
             raise ValueError(f"{name} must be one value or {dim} values (one per axis) in "
                              f"{unit}; got {np.size(value)}")
-    values = np.ravel(np.asarray(q, dtype=np.float64))
     q_axes, density = (tuple(float(v) for v in np.broadcast_to(np.asarray(a, dtype=float), (dim,)))
                        for a in (q, q_density))
-    dynamics = NearlyConstantVelocity(dim, float(values[0]) if np.ndim(q) == 0 else tuple(
-        float(v) for v in values), density)
-    return dynamics, q_axes
+    return NearlyConstantVelocity(dim, q_axes[0] if np.ndim(q) == 0 else q_axes, density), q_axes
 
 
 def _setup(source: object, prior_mean: ArrayLike | None, prior_cov: ArrayLike,

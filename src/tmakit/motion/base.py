@@ -79,55 +79,15 @@ class MotionModel(ABC):
         ndarray
         """
 
-    #: Whether the states are affine in ``theta`` (then :meth:`affine_map` is exact).
+    #: Whether the states are affine in ``theta`` (then :meth:`component_terms` is exact).
     affine: bool = False
     #: Whether the velocity's derivatives by ``theta`` are the same at every time.
     velocity_fixed: bool = False
 
-    def affine_map(self, t: ArrayLike
-                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
-        """Give ``states(theta, t) = offset + matrix @ theta`` when the model is :attr:`affine`.
-
-        Parameters
-        ----------
-        t : array_like
-            ``(n,)``, s.
-
-        Returns
-        -------
-        tuple of ndarray or None
-            ``(offset (n, 6), matrix (n, 6, p))``, or None.
-        """
-        if not self.affine:
-            return None
-        t = np.asarray(t, dtype=float)
-        zero = np.zeros(self.n_params)
-        return self.states(zero, t), self.jacobian(zero, t)
-
-    def component_map(self, t: ArrayLike
-                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
-        """Give :meth:`affine_map` component-major: ``(matrix (p, 6, n), offset (6, n))``.
-
-        Parameters
-        ----------
-        t : array_like
-            ``(n,)``, s.
-
-        Returns
-        -------
-        tuple of ndarray or None
-        """
-        amap = self.affine_map(t)
-        if amap is None:
-            return None
-        offset, matrix = amap
-        return (np.ascontiguousarray(matrix.transpose(2, 1, 0)),
-                np.ascontiguousarray(offset.T))
-
     def component_terms(self, t: ArrayLike
                         ) -> tuple[list[tuple[int, int, NDArray[np.float64] | None]],
                                    NDArray[np.float64]] | None:
-        """Give the non-zero terms of :meth:`component_map` and its offset.
+        """Give ``states(theta, t)`` as an offset plus the non-zero terms of ``theta``.
 
         Parameters
         ----------
@@ -137,20 +97,21 @@ class MotionModel(ABC):
         Returns
         -------
         tuple or None
-            ``(terms, offset (6, n))``, each term ``(parameter, component, coefficients or None)``;
-            None when the model is not affine.
+            ``(terms, offset (6, n))``, each term ``(parameter, component, coefficients or None)``
+            (None: all ones); None when the model is not :attr:`affine`.
         """
-        cmap = self.component_map(t)
-        if cmap is None:
+        if not self.affine:
             return None
-        matrix, offset = cmap
+        t = np.asarray(t, dtype=float)
+        zero = np.zeros(self.n_params)
+        matrix = self.jacobian(zero, t)  # (n, 6, p)
         terms = []
-        for i in range(matrix.shape[0]):
+        for i in range(self.n_params):
             for c in range(6):
-                row = matrix[i, c]
+                row = matrix[:, c, i]
                 if np.any(row != 0.0):
                     terms.append((i, c, None if np.all(row == 1.0) else row.copy()))
-        return terms, offset
+        return terms, np.ascontiguousarray(self.states(zero, t).T)
 
     def chain(self, d_state: NDArray[np.float64], theta: ArrayLike, t: ArrayLike
               ) -> NDArray[np.float64]:

@@ -107,25 +107,6 @@ class ConstantVelocity(MotionModel):
         pos = state[..., :d] - vel * (float(t) - self.ref_time)
         return np.concatenate([pos, vel], axis=-1)
 
-    def at_reference_time(self, theta: ArrayLike, new_ref_time: float) -> NDArray[np.float64]:
-        """Give the same trajectory's parameters referenced at another time.
-
-        Parameters
-        ----------
-        theta : array_like
-            ``(..., p)`` at :attr:`ref_time`.
-        new_ref_time : float
-            s.
-
-        Returns
-        -------
-        ndarray
-        """
-        theta = self.check_theta(theta).copy()
-        d = self.dim
-        theta[..., :d] += theta[..., d:] * (new_ref_time - self.ref_time)
-        return theta
-
     def __repr__(self) -> str:
         """Name the class, dimension and reference time."""
         return f"ConstantVelocity(dim={self.dim}, ref_time={self.ref_time})"

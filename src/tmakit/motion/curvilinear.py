@@ -22,15 +22,6 @@ from ..core.arrays import Array, IntArray
 from .base import MotionModel
 
 
-def _propagate(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: ArrayLike,
-               a_t: ArrayLike, a_n: ArrayLike, dt: ArrayLike, derivatives: bool = False
-               ) -> tuple[tuple[Array, ...], Array | None]:
-    """Propagate one segment; give ``(values, D)``."""
-    from .curvilinear_compiled import propagate_with_partials
-    values, par = propagate_with_partials(x, y, speed, course, a_t, a_n, dt, derivatives)
-    return tuple(np.moveaxis(values, -1, 0)), None if par is None else par[..., :4, :]
-
-
 def _param_names(manoeuvres: int) -> tuple[str, ...]:
     """Name ``x, y, speed, course, at_0, an_0, ..., at_M, an_M, t_1, ..., t_M``."""
     accel = [f"{a}_{m}" for m in range(manoeuvres + 1) for a in ("at", "an")]
@@ -57,7 +48,9 @@ def propagate_curvilinear(x: ArrayLike, y: ArrayLike, speed: ArrayLike, course: 
     ----------
     Hörst & Oispuu (2010), eq. 1.
     """
-    return _propagate(x, y, speed, course, a_t, a_n, dt)[0]
+    from .curvilinear_compiled import propagate_with_partials
+    values, _ = propagate_with_partials(x, y, speed, course, a_t, a_n, dt, partials=False)
+    return tuple(np.moveaxis(values, -1, 0))
 
 
 def propagate_curvilinear_derivatives(x: ArrayLike, y: ArrayLike, speed: ArrayLike,
@@ -66,9 +59,10 @@ def propagate_curvilinear_derivatives(x: ArrayLike, y: ArrayLike, speed: ArrayLi
                                       ) -> tuple[tuple[NDArray[np.float64], ...],
                                                  NDArray[np.float64]]:
     """Propagate as :func:`propagate_curvilinear`, with analytic derivatives."""
-    values, D = _propagate(x, y, speed, course, a_t, a_n, dt, derivatives=True)
-    assert D is not None
-    return values, D
+    from .curvilinear_compiled import propagate_with_partials
+    values, par = propagate_with_partials(x, y, speed, course, a_t, a_n, dt)
+    assert par is not None
+    return tuple(np.moveaxis(values, -1, 0)), par[..., :4, :]
 
 
 class PiecewiseCurvilinear(MotionModel):
@@ -106,20 +100,6 @@ class PiecewiseCurvilinear(MotionModel):
         self.ref_time = float(ref_time)
         self.param_names = _param_names(self.manoeuvres)
         self.name = f"curvilinear:{self.manoeuvres}"
-
-    def accel_index(self, segment: int) -> tuple[int, int]:
-        """Give the indices of ``at_segment`` and ``an_segment`` in ``theta``.
-
-        Parameters
-        ----------
-        segment : int
-            0..M.
-
-        Returns
-        -------
-        tuple of int
-        """
-        return 4 + 2 * segment, 5 + 2 * segment
 
     def time_index(self, m: int) -> int:
         """Give the index of the change-over time ``t_m`` in ``theta``.
