@@ -8,10 +8,10 @@ import pytest
 
 import tmakit as tk
 from tmakit.batch.solver import VarProProblem
-from tmakit.observation import ObservationModel, RowLayout
+from tmakit.observation import ObservationModel
 from tmakit.observation.affine_rows import AffineRows
 from tmakit.observation.noise import NoiseModel
-from tmakit.observation.rows import RowModel
+from tmakit.observation.rows import RowLayout, RowModel
 
 
 def _same(a: object, b: object) -> bool:
