@@ -93,17 +93,16 @@ class ValueRange:
     high_inclusive: bool = True
 
     def contains(self, values: ArrayLike) -> NDArray[np.bool_]:
-        """Tell where values lie in the range.
+        """Tell where values (file unit) lie in the range.
 
         Parameters
         ----------
         values : array_like
-            Values in the kind's file unit.
 
         Returns
         -------
         ndarray of bool
-            Same shape as ``values``; True where the value lies in the range.
+            The shape of ``values``.
         """
         v = np.asarray(values, dtype=float)
         ok = np.ones(v.shape, dtype=bool)
@@ -202,12 +201,11 @@ class MeasurementModel:
 
     @classmethod
     def check_values(cls, values: ArrayLike) -> NDArray[np.bool_]:
-        """Tell where file values (file units) are valid for this kind.
+        """Tell where file values (:attr:`file_unit`) are valid for this kind.
 
         Parameters
         ----------
         values : array_like
-            Values in :attr:`file_unit`.
 
         Returns
         -------
@@ -407,16 +405,14 @@ class MeasurementModel:
 
     def values_and_derivatives_into(self, rel: Array, t: Array, values: Array,
                                     d_rel: Array) -> None:
-        """Write :meth:`predict` and d value / d ``rel`` into given arrays (kinds without nuisance).
+        """Write :meth:`predict` and d value / d ``rel`` in place (kinds without nuisance).
 
         Parameters
         ----------
         rel, t
             As for :meth:`predict`.
-        values : ndarray
-            ``rel.shape[:-1]``, written (SI).
-        d_rel : ndarray
-            ``rel.shape``, zeros on entry, written (SI per m, per m/s).
+        values, d_rel : ndarray
+            ``rel.shape[:-1]`` and ``rel.shape`` (zeros on entry), written in SI.
         """
         values[...] = self.predict(rel, t, None, None)
         d_rel[...] = self.jacobian(rel, t, None, None).rel
