@@ -106,9 +106,6 @@ class MeasurementGroup:
         Row and reference times minus ``t`` (m,), s.
     sensor_state : ndarray
         (m, 6), m and m/s.
-    row_model : RowModel
-    covariance : ndarray
-        R (m, m), SI.
     full_covariance : ndarray or None
         The full covariance given, if any.
 
