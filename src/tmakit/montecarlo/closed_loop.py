@@ -337,14 +337,10 @@ class LoopChunk:
 
     def table(self) -> pd.DataFrame:
         """Return the chunk's rows of the per-step table."""
-        frames = []
-        for i, rec in enumerate(self.records):
-            cols = rec.columns()
-            d = len(rec)
-            frames.append(pd.DataFrame({"case": np.full(d, self.case, dtype=object),
-                                        "run": np.full(d, self.first_run + i, dtype=np.int64),
-                                        **cols}))
-        return pd.concat(frames, ignore_index=True)
+        return pd.concat([pd.DataFrame({"case": np.full(len(rec), self.case, dtype=object),
+                                        "run": np.full(len(rec), self.first_run + i,
+                                                       dtype=np.int64), **rec.columns()})
+                          for i, rec in enumerate(self.records)], ignore_index=True)
 
 
 def run_loop_chunk(task: LoopTask) -> LoopChunk:
