@@ -14,7 +14,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.arrays import Array
 from ..data import MeasurementSet
-from ..measurements import KINDS, MeasurementModel
+from ..measurements import MeasurementModel
 from ..motion.dynamics import state_names
 from ..sensors.radar import RadarModel
 from .noise import NoiseModel, checked_covariance
@@ -460,11 +460,10 @@ def radar_rows(radar: RadarModel, t: float, values: ArrayLike, sensor_state: Arr
     kinds = radar.kinds(dim)
     m = len(kinds)
     z = np.asarray(values, dtype=float).reshape(m)
-    sigma = radar.measurement_sigmas(kinds, elevation)
-    scale = np.array([KINDS[k].file_scale for k in kinds])
     state = np.broadcast_to(np.asarray(sensor_state, dtype=float).reshape(6), (m, 6))
-    return MeasurementSet(np.full(m, float(t)), np.full(m, sensor), list(kinds), z / scale,
-                          sigma / scale, state, check=False)  # noisy: a range may be < 0
+    return MeasurementSet.from_si(np.full(m, float(t)), np.full(m, sensor), list(kinds), z,
+                                  radar.measurement_sigmas(kinds, elevation), state,
+                                  check=False)  # noisy: a range may be < 0
 
 
 def radar_group(radar: RadarModel, t: float, dim: int = 2, *, elevation: float = 0.0,
