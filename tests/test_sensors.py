@@ -30,7 +30,7 @@ def speed(states: np.ndarray) -> np.ndarray:
 
 
 def central_difference(track, t: np.ndarray, h: float = FD_STEP) -> np.ndarray:
-    return (track.positions(t + h) - track.positions(t - h)) / (2.0 * h)
+    return (track.states(t + h)[:, :3] - track.states(t - h)[:, :3]) / (2.0 * h)
 
 
 # --------------------------------------------------------------------------- FixedSensor
@@ -49,7 +49,7 @@ def test_fixed_sensor_3d_and_scalar_time():
     out = s.states(5.0)
     assert out.shape == (1, 6)
     np.testing.assert_array_equal(out[0], [1.0, 2.0, 3.0, 0.0, 0.0, 0.0])
-    np.testing.assert_array_equal(s.positions([0.0, 1.0]), [[1.0, 2.0, 3.0]] * 2)
+    np.testing.assert_array_equal(s.states([0.0, 1.0])[:, :3], [[1.0, 2.0, 3.0]] * 2)
 
 
 @pytest.mark.parametrize("position", [
@@ -120,7 +120,7 @@ def test_legs_positions_continuous_across_leg_boundaries():
     ], start_time=-10.0)
     eps = 1e-6
     for tb in track.leg_start_times[1:]:
-        before, after = track.positions([tb - eps, tb + eps])
+        before, after = track.states([tb - eps, tb + eps])[:, :3]
         # At most 250 m/s * 2e-6 s apart, plus rounding.
         assert np.linalg.norm(after - before) < 250.0 * 2 * eps + 1e-6
 
@@ -178,7 +178,7 @@ def test_legs_full_circle_returns_to_start(rate):
     # heading North: the centre is to starboard (East) for a clockwise turn, West otherwise
     centre = start + np.array([math.copysign(radius, rate), 0.0])
     np.testing.assert_allclose(np.linalg.norm(out[:, :2] - centre, axis=1), radius, rtol=1e-10)
-    half = track.positions(period / 2)[0, :2]
+    half = track.states(period / 2)[0, :2]
     np.testing.assert_allclose(half, start + 2 * (centre - start), atol=1e-6)
 
 
@@ -253,7 +253,7 @@ def test_paper_000_sensor_path_distances():
         Leg(math.inf, math.radians(2.366679)),
     ])
     t = np.arange(0.0, 121.0)
-    sensor = track.positions(t)
+    sensor = track.states(t)[:, :3]
     target = np.column_stack([3200.0 - 21.65 * t, 3200.0 - 12.5 * t])
     d = np.linalg.norm(target - sensor[:, :2], axis=1)
     assert abs(d.mean() - 2718) < 1
@@ -374,7 +374,7 @@ def test_recorded_outside_span_raises_with_span():
         with pytest.raises(ValueError, match=r"\[100, 130\]"):
             track.states(bad)
     # the end points themselves are inside
-    np.testing.assert_allclose(track.positions([100.0, 130.0])[:, :2],
+    np.testing.assert_allclose(track.states([100.0, 130.0])[:, :2],
                                [[100.0, 200.0], [130.0, 260.0]], atol=1e-9)
 
 
@@ -398,9 +398,9 @@ def test_recorded_from_geodetic_matches_geodetic_to_enu():
     alt = 600.0 + 2.0 * t
     track = RecordedTrack.from_geodetic(t, lat, lon, alt, origin)
     e, n, u = geodetic_to_enu(lat, lon, alt, origin)
-    np.testing.assert_allclose(track.positions(t), np.column_stack([e, n, u]), atol=1e-6)
+    np.testing.assert_allclose(track.states(t)[:, :3], np.column_stack([e, n, u]), atol=1e-6)
     # North and West of the origin, above it
-    p = track.positions(30.0)[0]
+    p = track.states(30.0)[0, :3]
     assert p[0] < 0 < p[1] and p[2] > 0
     with pytest.raises(ValueError):
         RecordedTrack.from_geodetic(t, lat, lon, alt, (95.0, 0.0, 0.0))

@@ -25,14 +25,9 @@ from ..core.linalg import repair_psd, solve_spd
 from ..data import KIND_CODES, MeasurementSet
 from ..measurements import MeasurementModel
 from ..motion.dynamics import NearlyConstantVelocity
-from ..observation import (
-    MeasurementGroup,
-    RowLayout,
-    resolve_models,
-    time_blocks,
-    tonals_scaled,
-)
-from ..observation.rows import Index, as_slice, correlated_blocks
+from ..observation import MeasurementGroup
+from ..observation.groups import time_blocks, tonals_scaled
+from ..observation.rows import Index, RowLayout, as_slice, correlated_blocks, resolve_models
 
 
 class PreparedMeasurements:

@@ -93,17 +93,16 @@ class ValueRange:
     high_inclusive: bool = True
 
     def contains(self, values: ArrayLike) -> NDArray[np.bool_]:
-        """Tell where values lie in the range.
+        """Tell where values (file unit) lie in the range.
 
         Parameters
         ----------
         values : array_like
-            Values in the kind's file unit.
 
         Returns
         -------
         ndarray of bool
-            Same shape as ``values``; True where the value lies in the range.
+            The shape of ``values``.
         """
         v = np.asarray(values, dtype=float)
         ok = np.ones(v.shape, dtype=bool)
@@ -202,12 +201,11 @@ class MeasurementModel:
 
     @classmethod
     def check_values(cls, values: ArrayLike) -> NDArray[np.bool_]:
-        """Tell where file values (file units) are valid for this kind.
+        """Tell where file values (:attr:`file_unit`) are valid for this kind.
 
         Parameters
         ----------
         values : array_like
-            Values in :attr:`file_unit`.
 
         Returns
         -------
@@ -330,11 +328,6 @@ class MeasurementModel:
         -------
         Jacobian
             Derivatives with respect to ``rel``, ``rel_ref`` and the nuisance.
-
-        Raises
-        ------
-        NotImplementedError
-            In the base class.
         """
         raise NotImplementedError
 
@@ -357,12 +350,8 @@ class MeasurementModel:
         Returns
         -------
         tuple of float
-            The value (SI) then its six derivatives with respect to ``rel``.
-
-        Raises
-        ------
-        NotImplementedError
-            Unless the kind implements it (:attr:`has_row_gradient`).
+            The value (SI) then its six derivatives with respect to ``rel``; only where
+            :attr:`has_row_gradient`.
         """
         raise NotImplementedError(f"{self.kind}: no plain-float row_gradient")
 
@@ -385,35 +374,13 @@ class MeasurementModel:
         return (self.predict(rel, t, nuisance, None),
                 self.jacobian(rel, t, nuisance, None).rel)
 
-    def affine(self, rel: ArrayLike, t: ArrayLike | None = None,
-               rel_ref: ArrayLike | None = None) -> tuple[Array, Array]:
-        """Split the prediction as ``h0 + A @ nuisance``.
-
-        Parameters
-        ----------
-        rel, t, rel_ref
-            As for :meth:`predict`.
-
-        Returns
-        -------
-        h0 : ndarray
-            ``(..., n)``, SI.
-        A : ndarray
-            ``(..., n, k)``, value units per nuisance unit.
-        """
-        rel = as_rel(rel)
-        k = len(self.nuisance_names)
-        if k == 0:
-            return self.predict(rel, t, None, rel_ref), np.zeros((*rel.shape[:-1], 0))
-        base = self.predict(rel, t, np.zeros(k), rel_ref)
-        cols = [self.predict(rel, t, np.eye(k)[j], rel_ref) - base for j in range(k)]
-        return base, np.stack(cols, axis=-1)
-
     def affine_parts(self, rel: ArrayLike, t: ArrayLike | None = None,
                      rel_ref: ArrayLike | None = None) -> tuple[Array, Array, Array]:
-        """Split :meth:`affine`'s design as ``A = A_const + A_var`` (fixed by geometry, the rest).
+        """Split the prediction as ``h0 + (A_const + A_var) @ nuisance``.
 
-        Solvers subtract ``A_const @ nuisance`` once, so a GHz carrier does not swamp the residuals.
+        ``A_const`` is fixed by geometry: solvers subtract ``A_const @ nuisance`` once, so a GHz
+        carrier does not swamp the residuals.  The base class finds ``A_var`` by unit nuisance
+        vectors (exact: predictions are affine in the nuisance).
 
         Parameters
         ----------
@@ -427,21 +394,25 @@ class MeasurementModel:
         A_const, A_var : ndarray
             ``(..., n, k)``, value units per nuisance unit.
         """
-        h0, a = self.affine(rel, t, rel_ref)
-        return h0, np.zeros(a.shape), a
+        rel = as_rel(rel)
+        k = len(self.nuisance_names)
+        empty = np.zeros((*rel.shape[:-1], k))
+        if k == 0:
+            return self.predict(rel, t, None, rel_ref), empty, empty
+        base = self.predict(rel, t, np.zeros(k), rel_ref)
+        cols = [self.predict(rel, t, np.eye(k)[j], rel_ref) - base for j in range(k)]
+        return base, empty, np.stack(cols, axis=-1)
 
     def values_and_derivatives_into(self, rel: Array, t: Array, values: Array,
                                     d_rel: Array) -> None:
-        """Write :meth:`predict` and d value / d ``rel`` into given arrays (kinds without nuisance).
+        """Write :meth:`predict` and d value / d ``rel`` in place (kinds without nuisance).
 
         Parameters
         ----------
         rel, t
             As for :meth:`predict`.
-        values : ndarray
-            ``rel.shape[:-1]``, written (SI).
-        d_rel : ndarray
-            ``rel.shape``, zeros on entry, written (SI per m, per m/s).
+        values, d_rel : ndarray
+            ``rel.shape[:-1]`` and ``rel.shape`` (zeros on entry), written in SI.
         """
         values[...] = self.predict(rel, t, None, None)
         d_rel[...] = self.jacobian(rel, t, None, None).rel

@@ -117,12 +117,6 @@ class Frequency(MeasurementModel):
         small = dot3(p, rel[..., 3:]) / np.sqrt(dot3(p, p)) * (-1.0 / self.c)
         return self._design(small, t)
 
-    def affine(self, rel: ArrayLike, t: ArrayLike | None = None,
-               rel_ref: ArrayLike | None = None) -> tuple[Array, Array]:
-        """Give ``(h0, A_const + A_var)``; see :meth:`MeasurementModel.affine`."""
-        h0, const, var = self.affine_parts(rel, t, rel_ref)
-        return h0, const + var
-
     def affine_derivatives(self, rel: ArrayLike, t: ArrayLike | None = None,
                            rel_ref: ArrayLike | None = None
                            ) -> tuple[Array, Array, Array, Array | None, Array | None,

@@ -71,12 +71,6 @@ class Power(MeasurementModel):
         r = range_of(rel)
         return const_db - 10.0 * n * np.log10(r)
 
-    def affine(self, rel: ArrayLike, t: ArrayLike | None = None,
-               rel_ref: ArrayLike | None = None) -> tuple[Array, Array]:
-        """Give ``(h0, A_const + A_var)``; see :meth:`MeasurementModel.affine`."""
-        h0, const, var = self.affine_parts(rel, t, rel_ref)
-        return h0, const + var
-
     def _design(self, r2: Array) -> tuple[Array, Array, Array]:
         """Give ``(h0, A_const, A_var)`` from the squared range ``r2``."""
         minus_10_log_r = np.log(r2) * (-0.5 * _TEN_OVER_LN10)

@@ -28,7 +28,6 @@ from ..core.arrays import Array
 from ..core.frames import wrap_angle
 from ..data import MeasurementSet
 from ..filters import FILTERS, TrackingFilter
-from ..measurements import KINDS
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation import MeasurementGroup
 from ..planning.belief import Belief
@@ -181,12 +180,10 @@ def simulate_group(group: MeasurementGroup, target: ArrayLike, sensor_state: Arr
     kinds = np.empty(m, dtype=object)
     for kind, idx in group.index.items():
         kinds[idx] = kind
-    scale = np.array([float(KINDS[k].file_scale) for k in kinds])
-    offset = np.array([float(KINDS[k].file_offset) for k in kinds])
     t = group.time if time is None else float(time)
-    return MeasurementSet(np.full(m, t), np.full(m, sensor), kinds.astype(str),
-                          (value - offset) / scale, np.sqrt(np.diagonal(r)) / scale,
-                          np.repeat(s, m, axis=0), check=False)  # noisy: a range may be < 0
+    return MeasurementSet.from_si(np.full(m, t), np.full(m, sensor), kinds.astype(str), value,
+                                  np.sqrt(np.diagonal(r)), np.repeat(s, m, axis=0),
+                                  check=False)  # noisy: a range may be < 0
 
 
 def _truth_path(setup: LoopSetup, dynamics: NearlyConstantVelocity,
@@ -337,14 +334,10 @@ class LoopChunk:
 
     def table(self) -> pd.DataFrame:
         """Return the chunk's rows of the per-step table."""
-        frames = []
-        for i, rec in enumerate(self.records):
-            cols = rec.columns()
-            d = len(rec)
-            frames.append(pd.DataFrame({"case": np.full(d, self.case, dtype=object),
-                                        "run": np.full(d, self.first_run + i, dtype=np.int64),
-                                        **cols}))
-        return pd.concat(frames, ignore_index=True)
+        return pd.concat([pd.DataFrame({"case": np.full(len(rec), self.case, dtype=object),
+                                        "run": np.full(len(rec), self.first_run + i,
+                                                       dtype=np.int64), **rec.columns()})
+                          for i, rec in enumerate(self.records)], ignore_index=True)
 
 
 def run_loop_chunk(task: LoopTask) -> LoopChunk:

@@ -23,7 +23,6 @@ from .closed_loop import (
     MIN_RUNS_INTERVAL,
     ClosedLoopStudy,
     LoopCase,
-    LoopRecord,
     LoopSetup,
     closed_loop_study,
 )
@@ -112,61 +111,15 @@ class PlanRun:
     setup : PlanningSetup
         What was run.
     study : ClosedLoopStudy
-        The runs: case :data:`CASE` and, when the pattern covers the run, :data:`FIXED`.
+        The runs: case :data:`CASE` and, when the pattern covers the run, :data:`FIXED` (its
+        figures per decision: ``study.rmse(case)``, ``study.pcrb(case)``, ...).
     fixed_note : str or None
         Why there is no fixed case (None when there is one).
-
-    Every method takes a ``case``, :data:`CASE` (default) or :data:`FIXED`, and gives its
-    figures per decision, (D,) in metres, unless it says otherwise.
     """
 
     setup: PlanningSetup
     study: ClosedLoopStudy
     fixed_note: str | None = None
-
-    def records(self, case: str = CASE) -> list[LoopRecord]:
-        """Return the runs' records of ``case``, in run order.
-
-        Parameters
-        ----------
-        case : str, optional
-
-        Returns
-        -------
-        list of LoopRecord
-        """
-        return self.study.records[case]
-
-    @property
-    def times(self) -> np.ndarray:
-        """Decision times ``t_1 .. t_D`` (D,), s."""
-        return self.study.times(CASE)
-
-    def rmse(self, case: str = CASE) -> np.ndarray:
-        """Return the position RMSE over the runs at each decision (D,), m.
-
-        Parameters
-        ----------
-        case : str, optional
-
-        Returns
-        -------
-        ndarray
-        """
-        return self.study.rmse(case)
-
-    def pcrb(self, case: str = CASE) -> np.ndarray:
-        """Return the posterior CRB at each decision (D,), m (the bound the RMSE is held to).
-
-        Parameters
-        ----------
-        case : str, optional
-
-        Returns
-        -------
-        ndarray
-        """
-        return self.study.pcrb(case)
 
     def table(self) -> pd.DataFrame:
         """Return the per-step table: one row per case, run and decision.
@@ -207,7 +160,7 @@ class PlanRun:
         out: dict[str, float | int | None] = dict(self.study.summary(case))
         worst = np.concatenate([np.max(list(r.violations.values()), axis=0)
                                 if r.violations else np.zeros(len(r))
-                                for r in self.records(case)])
+                                for r in self.study.records[case]])
         out["violations"] = int(np.sum(worst > 1e-3))
         out["max_violation_m"] = float(worst.max())
         out["steps"] = int(self.setup.steps)

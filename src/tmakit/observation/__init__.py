@@ -5,17 +5,9 @@ state), :class:`NoiseModel` (whitening) and the radar's :func:`radar_group`; the
 :mod:`tmakit.observation.rows`.
 """
 
-from .groups import (
-    MeasurementGroup,
-    group_times,
-    radar_group,
-    radar_rows,
-    time_blocks,
-    tonals_scaled,
-)
+from .groups import MeasurementGroup, group_times, radar_group, radar_rows
 from .model import ObservationModel
 from .noise import NoiseModel
-from .rows import RowLayout, resolve_models
 
-__all__ = ["MeasurementGroup", "NoiseModel", "ObservationModel", "RowLayout", "group_times",
-           "radar_group", "radar_rows", "resolve_models", "time_blocks", "tonals_scaled"]
+__all__ = ["MeasurementGroup", "NoiseModel", "ObservationModel", "group_times", "radar_group",
+           "radar_rows"]

@@ -14,14 +14,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.arrays import Array
 from ..data import MeasurementSet
-from ..measurements import KINDS, MeasurementModel
+from ..measurements import MeasurementModel
 from ..motion.dynamics import state_names
 from ..sensors.radar import RadarModel
 from .noise import NoiseModel, checked_covariance
 from .rows import RowLayout, RowModel, resolve_models
 
 __all__ = ["TIME_TOLERANCE", "MeasurementGroup", "chain_state", "group_times", "radar_group",
-           "radar_rows", "resolve_models", "target_states", "time_blocks"]
+           "radar_rows", "target_states", "time_blocks", "tonals_scaled"]
 
 #: Rows whose times differ by less than this (s) are taken at one time.
 TIME_TOLERANCE = 1e-9
@@ -47,30 +47,7 @@ def chain_state(d: Array, dt: Array, dim: int) -> Array:
 def tonals_scaled(meas: MeasurementSet, options: Mapping[str, Mapping[str, object]] | None,
                   nuisance: Mapping[str, float] | None
                   ) -> tuple[MeasurementSet, Mapping[str, float] | None]:
-    """Give the rows of several tonals as one: each frequency divided by its tonal's known f0.
-
-    ``f / f0 = 1 - rdot / c`` exactly, so a filter, which takes one known carrier per kind,
-    follows every tonal with the carrier 1 (Hz/Hz); sigmas are divided alike.
-
-    Parameters
-    ----------
-    meas : MeasurementSet
-        The rows (:attr:`~tmakit.data.MeasurementSet.tonal`).
-    options : mapping, optional
-        Per-kind model options.
-    nuisance : mapping, optional
-        Known nuisance values: ``carrier[LABEL]`` (Hz) for each tonal.
-
-    Returns
-    -------
-    meas, nuisance
-        As given with one tonal or none; else the scaled rows and ``carrier = 1``.
-
-    Raises
-    ------
-    ValueError
-        A tonal's f0 missing, or a carrier drift (not shared by tonals once scaled).
-    """
+    """Give the rows of several tonals as one tonal of carrier 1: ``f / f0 = 1 - rdot / c``."""
     if meas.tonal is None:
         return meas, nuisance
     labels = list(dict.fromkeys(meas.tonal[meas.kind_mask("frequency")].tolist()))
@@ -129,9 +106,6 @@ class MeasurementGroup:
         Row and reference times minus ``t`` (m,), s.
     sensor_state : ndarray
         (m, 6), m and m/s.
-    row_model : RowModel
-    covariance : ndarray
-        R (m, m), SI.
     full_covariance : ndarray or None
         The full covariance given, if any.
 
@@ -438,20 +412,7 @@ class MeasurementGroup:
 
 
 def time_blocks(time: ArrayLike) -> tuple[NDArray[np.intp], NDArray[np.int64]]:
-    """Group rows by time (within :data:`TIME_TOLERANCE` s of the previous row).
-
-    Parameters
-    ----------
-    time : array_like
-        Row times (m,), s.
-
-    Returns
-    -------
-    order : ndarray
-        The rows sorted by time (stable).
-    bounds : ndarray
-        Update ``k`` is ``order[bounds[k]:bounds[k + 1]]``.
-    """
+    """Group rows by time (within :data:`TIME_TOLERANCE` s): their stable order, update bounds."""
     t = np.asarray(time, dtype=float)
     order = np.argsort(t, kind="stable")
     breaks = np.flatnonzero(np.diff(t[order]) > TIME_TOLERANCE) + 1
@@ -499,11 +460,10 @@ def radar_rows(radar: RadarModel, t: float, values: ArrayLike, sensor_state: Arr
     kinds = radar.kinds(dim)
     m = len(kinds)
     z = np.asarray(values, dtype=float).reshape(m)
-    sigma = radar.measurement_sigmas(kinds, elevation)
-    scale = np.array([KINDS[k].file_scale for k in kinds])
     state = np.broadcast_to(np.asarray(sensor_state, dtype=float).reshape(6), (m, 6))
-    return MeasurementSet(np.full(m, float(t)), np.full(m, sensor), list(kinds), z / scale,
-                          sigma / scale, state, check=False)  # noisy: a range may be < 0
+    return MeasurementSet.from_si(np.full(m, float(t)), np.full(m, sensor), list(kinds), z,
+                                  radar.measurement_sigmas(kinds, elevation), state,
+                                  check=False)  # noisy: a range may be < 0
 
 
 def radar_group(radar: RadarModel, t: float, dim: int = 2, *, elevation: float = 0.0,

@@ -377,24 +377,6 @@ class ObservationModel:
         j_theta, j_nu = self.jacobian_grouped(theta, nuisance)
         return self._to_set_order(j_theta, -2), self._to_set_order(j_nu, -2)
 
-    def affine_parts(self, theta: ArrayLike) -> tuple[Array, Array, Array]:
-        """Return ``(h0, A_const, A_var)``: predictions ``h0 + (A_const + A_var) @ nu``.
-
-        Parameters
-        ----------
-        theta : array_like
-            Motion parameters ``(..., p)``, SI.
-
-        Returns
-        -------
-        h0, a_const, a_var : ndarray
-            (..., n), (..., n, k), (..., n, k), SI.
-        """
-        lin = self.linearisation(theta, derivatives=False)
-        inv = self.inverse
-        c = np.broadcast_to(self.const_design, lin.a_var.shape)
-        return lin.h0[..., inv], c[..., inv, :], lin.a_var[..., inv, :]
-
     def affine(self, theta: ArrayLike) -> tuple[Array, Array]:
         """Return ``(h0, A)`` with predictions ``h0 + A @ nuisance``.
 
@@ -408,8 +390,9 @@ class ObservationModel:
         h0, a : ndarray
             (..., n) and (..., n, k), SI.
         """
-        h0, const, var = self.affine_parts(theta)
-        return h0, const + var
+        lin = self.linearisation(theta, derivatives=False)
+        inv = self.inverse
+        return lin.h0[..., inv], (self.const_design + lin.a_var)[..., inv, :]
 
     def residuals(self, theta: ArrayLike, nuisance: ArrayLike | None = None) -> Array:
         """Return measured minus predicted, angles wrapped to (-pi, pi].

@@ -36,8 +36,6 @@ class NoiseModel:
     ----------
     n, rank : int
         Rows, and independent rows (degrees of freedom).
-    log_det : float
-        ``log det R`` over the kept eigenvalues.
     correlated : bool
         Some block is dense.
 
@@ -84,8 +82,6 @@ class NoiseModel:
         self.n = sigma.shape[0]
         self.inv_sigma = 1.0 / sigma
         self.rank = self.n
-        self._sigma = sigma  # (log_det: made on first use)
-        self._log_det_blocks: list[Array] = []
         by_size: dict[int, list[tuple[NDArray[np.intp], NDArray[np.float64]]]] = {}
         for rows, cov in blocks:
             by_size.setdefault(rows.size, []).append((rows, cov))
@@ -121,7 +117,6 @@ class NoiseModel:
         whitener = np.take_along_axis(np.swapaxes(scaled, 1, 2), order[:, :, None], axis=1)
         whitener *= inv[:, None, :]
         self.rank -= int(np.sum(size - kept))
-        self._log_det_blocks.append(np.sum(np.log(np.where(keep, evals, 1.0)), axis=1))
         return rows, np.ascontiguousarray(whitener)
 
     @property
@@ -129,17 +124,6 @@ class NoiseModel:
         """The dense blocks: each one's rows (ascending) and whitener (for small sets, tests)."""
         return [(r, w) for rows, whiteners in self._stacks for r, w in zip(rows, whiteners,
                                                                            strict=True)]
-
-    @property
-    def log_det(self) -> float:
-        """``log det R`` of the noise covariance (rows of SI units squared), on first use."""
-        if not hasattr(self, "_log_det"):
-            log_det = float(2.0 * np.sum(np.log(self._sigma)))
-            for terms in self._log_det_blocks:  # per block size, blocks in the order found
-                for term in terms.tolist():
-                    log_det += term
-            self._log_det = log_det
-        return self._log_det
 
     @classmethod
     def from_covariance(cls, covariance: NDArray[np.float64]) -> NoiseModel:

@@ -26,24 +26,7 @@ def resolve_models(kinds: Iterable[str],
                    options: Mapping[str, Mapping[str, object]] | None = None,
                    nuisance: Mapping[str, float] | None = None
                    ) -> tuple[dict[str, MeasurementModel], dict[str, Array]]:
-    """Make the measurement model of each kind and its known nuisance vector.
-
-    Parameters
-    ----------
-    kinds : iterable of str
-    options, nuisance : mapping, optional
-        Per-kind model options; known nuisance values by name, SI.
-
-    Returns
-    -------
-    models, values : dict, dict
-        Each kind's model and nuisance vector.
-
-    Raises
-    ------
-    ValueError
-        When a kind needs a nuisance value that was not given.
-    """
+    """Make each kind's measurement model and its known nuisance vector."""
     options = dict(options or {})
     models: dict[str, MeasurementModel] = {}
     values: dict[str, Array] = {}
@@ -110,19 +93,7 @@ def reference_span(models: Mapping[str, MeasurementModel], slices: Mapping[str, 
 
 
 class RowLayout:
-    """Where each kind's rows sit in a block of ``m`` rows, shared by blocks of one pattern.
-
-    Parameters
-    ----------
-    models : mapping
-        Each kind's model.
-    index : mapping
-        The rows of each kind (ascending indices or slices).
-    m : int
-        The number of rows.
-    tonal : ndarray of str, optional
-        Each row's tonal label (:attr:`.MeasurementSet.tonal`): one nuisance per tonal.
-    """
+    """Where each kind's rows sit in a block of ``m`` rows, shared by blocks of one pattern."""
 
     def __init__(self, models: Mapping[str, MeasurementModel], index: Mapping[str, Index],
                  m: int, tonal: NDArray[np.str_] | None = None) -> None:

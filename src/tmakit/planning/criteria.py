@@ -129,10 +129,6 @@ class WeightedTrace:
         -------
         ndarray, shape (...,)
             The weighted trace (m^2 for the default position weighting).
-
-        References
-        ----------
-        Hurtado & Nehorai (2008), eq. 12.
         """
         pi = self.matrix(covariance.shape[-1])
         return np.einsum("ij,...ji->...", pi, covariance)

@@ -558,10 +558,10 @@ def step_from_rows(fields: Array, flags: Array, shape: tuple[int, ...], interval
         fields = fields.reshape(fields.shape[0], *shape)
         flags = flags.reshape(4, *shape)
     axes = (*range(1, len(shape) + 1), 0)   # (3, *shape) -> (*shape, 3)
-    start = PlatformState.view(fields[14:17].transpose(axes), fields[17], fields[18],
-                               fields[19], time)
-    end = PlatformState.view(fields[0:3].transpose(axes), fields[3], fields[4], fields[5],
-                             time + interval)
+    start = PlatformState.trusted(fields[14:17].transpose(axes), fields[17], fields[18],
+                                  fields[19], time, as_given=True)
+    end = PlatformState.trusted(fields[0:3].transpose(axes), fields[3], fields[4], fields[5],
+                                time + interval, as_given=True)
     return Step(start, end, fields[6], fields[7], fields[5], float(interval), flags[0],
                 flags[1], flags[2], flags[3])
 

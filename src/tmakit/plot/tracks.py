@@ -305,12 +305,13 @@ def plot_plan(run: PlanRun, path: str | Path, *, paths: int = 3, title: str | No
     grid = fig.add_gridspec(2, 2, width_ratios=[1.1, 1.3])
     ax_map, ax_range = fig.add_subplot(grid[:, 0]), fig.add_subplot(grid[0, 1])
     ax_err = fig.add_subplot(grid[1, 1], sharex=ax_range)
-    start = run.setup.start
-    cases = run.study.cases
-    for i, rec in enumerate(run.records()[:max(paths, 1)]):
+    start, study = run.setup.start, run.study
+    cases = study.cases
+    planned = study.records[cases[0]]
+    for i, rec in enumerate(planned[:max(paths, 1)]):
         first = i == 0
         for case, style in zip(cases, ("-", ":"), strict=False):
-            flown = run.records(case)[i].sensor[:, :2]
+            flown = study.records[case][i].sensor[:, :2]
             sensor = np.vstack([start.position[None, :2], flown]) / 1e3
             ax_map.plot(sensor[:, 0], sensor[:, 1], color=colours[0], lw=1.2, ls=style,
                         label=f"sensor ({case})" if first else None)
@@ -321,15 +322,15 @@ def plot_plan(run: PlanRun, path: str | Path, *, paths: int = 3, title: str | No
     ax_map.plot(*(start.position[:2] / 1e3), "o", color=colours[0], label="sensor start")
     ax_map.set(xlabel="east (km)", ylabel="north (km)", aspect="equal")
     ax_map.legend(loc="best", fontsize="small")
-    t = run.times
-    for rec in run.records():
+    t = study.times(cases[0])
+    for rec in planned:
         ax_range.plot(t, rec.range_m / 1e3, color=colours[0], lw=0.8, alpha=0.6)
     ax_range.set(ylabel="range to target (km), planned path")
     for case, colour in zip(cases, (colours[3], colours[4]), strict=False):
-        ax_err.semilogy(t, run.rmse(case), color=colour, label=f"position RMSE ({case})")
-        ax_err.semilogy(t, run.pcrb(case), color=colour, ls="--",
+        ax_err.semilogy(t, study.rmse(case), color=colour, label=f"position RMSE ({case})")
+        ax_err.semilogy(t, study.pcrb(case), color=colour, ls="--",
                         label=f"posterior CRB at the truth ({case})")
     ax_err.set(xlabel="time (s)", ylabel="position error (m)")
     ax_err.legend(loc="best", fontsize="small")
-    default = f"{run.setup.scenario.name}: planned path, {len(run.records())} run(s)"
+    default = f"{run.setup.scenario.name}: planned path, {len(planned)} run(s)"
     return save(fig, path, title or default)

@@ -103,38 +103,26 @@ class PlatformState:
 
     @classmethod
     def trusted(cls, position: Array, heading: Array, speed: Array, climb_rate: Array,
-                time: float) -> PlatformState:
+                time: float, as_given: bool = False) -> PlatformState:
         """Make a state from fields derived from checked ones: copied, heading wrapped, no check.
 
         Parameters
         ----------
         position, heading, speed, climb_rate, time
             As for the constructor, of one batch shape (``position`` ``(*shape, 3)``).
+        as_given : bool, optional
+            Hold the arrays themselves: no copy and no wrap (the heading already in
+            ``(-pi, pi]``).
 
         Returns
         -------
         PlatformState
         """
         state = object.__new__(cls)
-        _set(state, np.array(position, dtype=float), wrap_angle(np.array(heading, dtype=float)),
-             np.array(speed, dtype=float), np.array(climb_rate, dtype=float), time)
-        return state
-
-    @classmethod
-    def view(cls, position: Array, heading: Array, speed: Array, climb_rate: Array,
-             time: float) -> PlatformState:
-        """Make a state holding the given arrays as they are: no copy, no check, no wrap.
-
-        Parameters
-        ----------
-        position, heading, speed, climb_rate, time
-            As for :meth:`trusted`, the heading already in ``(-pi, pi]``.
-
-        Returns
-        -------
-        PlatformState
-        """
-        state = object.__new__(cls)
+        if not as_given:
+            position, heading = np.array(position, dtype=float), np.array(heading, dtype=float)
+            speed, climb_rate = np.array(speed, dtype=float), np.array(climb_rate, dtype=float)
+            heading = wrap_angle(heading)
         _set(state, position, heading, speed, climb_rate, time)
         return state
 

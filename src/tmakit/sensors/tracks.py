@@ -119,21 +119,6 @@ class SensorTrack(ABC):
             If ``t`` is not 1-D (or, for a recorded track, outside the record).
         """
 
-    def positions(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Give the sensor's ENU positions at times ``t``.
-
-        Parameters
-        ----------
-        t : array_like
-            Times (s), scalar or 1-D.
-
-        Returns
-        -------
-        numpy.ndarray
-            ``[x, y, z]`` ``(n, 3)`` (m).
-        """
-        return self.states(t)[:, :3]
-
 
 @dataclass(frozen=True)
 class FixedSensor(SensorTrack):

@@ -35,7 +35,8 @@ from ..data import MeasurementSet
 from ..filters import BearingPrior, FirstBearing, Track, first_bearing
 from ..measurements import model_for
 from ..motion import ConstantVelocity
-from ..observation import NoiseModel, ObservationModel, time_blocks
+from ..observation import NoiseModel, ObservationModel
+from ..observation.groups import time_blocks
 from ..results.estimate import EstimateResult
 from .errors import MissingNuisanceError, StartError, TrackingError
 from .filter_setup import FilterSetup, state_vector
