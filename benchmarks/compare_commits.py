@@ -70,6 +70,7 @@ t = time.process_time()
 for _ in range(3): tk.track(m, "ekf")
 """,
     "track ukf gu2007": """
+# (a start's covariance widened to its profile likelihood: not computed before commit 0a9b5f5)
 m = tk.load_scenario("gu2007").simulate(rng=3); tk.track(m, "ukf")
 t = time.process_time()
 for _ in range(3): tk.track(m, "ukf")
@@ -81,6 +82,8 @@ for _ in range(3): tk.track(m, "ukf")
 """,
     "track pf 2000 bearings-only-2d": """
 m = tk.load_scenario("bearings-only-2d").simulate(rng=3)
+# (the first track of a process imports tmakit.filters and scipy.linalg here, about 0.15 s, which
+# load_scenario imported at commit fc22db2 (not counted there); not a numba compile)
 t = time.process_time()
 tk.track(m, "pf", particles=2000, rng=1)
 """,
