@@ -450,8 +450,9 @@ def window_times(meas: Any, start: str | None, stop: str | None) -> tuple[float 
     """Parse ``--from`` and ``--to`` (seconds, or None), refusing a window that ends first."""
     t_from, t_to = parse_time(start, meas, "--from"), parse_time(stop, meas, "--to")
     if t_from is not None and t_to is not None and t_from > t_to:
-        raise fail(f"--from {start} is after --to {stop} ({t_from:g} s > {t_to:g} s): give the "
-                   "leg's start first")
+        from ..io.logs import reversed_window
+
+        raise fail(reversed_window(str(start), str(stop), f"{t_from:g} s", f"{t_to:g} s"))
     return t_from, t_to
 
 

@@ -31,6 +31,7 @@ from .logs import (
     iso_utc,
     local_frame,
     relative_seconds,
+    reversed_window,
     seconds_of_time_text,
     time_origin_ns,
     velocity_from_positions,
@@ -477,11 +478,14 @@ def _in_window(where: Path, rows: list[SensorLine], window: Sequence[str | None]
             for text, option in zip(window, ("--from", "--to"), strict=True))
     except ValueError as e:
         raise MeasurementFileError(where, [str(e)]) from None
+    if lo is not None and hi is not None and lo > hi:  # the options' fault, not the file's
+        raise ValueError(reversed_window(window[0], window[1], iso_utc(lo), iso_utc(hi)))
     kept = [s for s in rows if (lo is None or s.time_ns >= lo) and (hi is None or s.time_ns <= hi)]
     if not kept:
-        raise MeasurementFileError(where, [
-            f"no cut between {window[0] or 'the start'} and {window[1] or 'the end'} (the cuts "
-            f"span {iso_utc(rows[0].time_ns)} to {iso_utc(rows[-1].time_ns)})"])
+        raise ValueError(
+            f"--from/--to: no cut between {window[0] or 'the start'} and "
+            f"{window[1] or 'the end'} in {where}: the window is empty (the cuts span "
+            f"{iso_utc(rows[0].time_ns)} to {iso_utc(rows[-1].time_ns)})")
     return kept
 
 
