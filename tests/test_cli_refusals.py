@@ -46,3 +46,39 @@ def test_an_empty_window_of_a_replay_names_the_options_not_a_file_problem():
 def test_a_reversed_window_from_python_is_a_value_error_naming_the_window():
     with pytest.raises(ValueError, match="--from 12:00 is after --to 11:00"):
         tk.read_measurements(REPLAY, window=("12:00", "11:00"))
+
+
+@pytest.mark.parametrize("second", ["b.kml", "b.rep"])
+def test_two_files_after_one_export_say_to_give_export_once_per_file(tmp_path, second):
+    """Was: ``--export a.rep b.kml`` read b.kml as a measurement file ("b.kml: no such file", or
+    "several files are read as one only for Debrief replays" when it existed)."""
+    a, b = tmp_path / "a.rep", tmp_path / second
+    for where in (["--export", a, b, EXAMPLES / "contact.rep"],
+                  [EXAMPLES / "contact.rep", f"--export={a}", b]):
+        result, text = run("estimate", *where, "--motion", "cv2d")
+        assert result.exit_code == 2
+        assert (f"error: {b}: no such file, and it stands after --export {a}: an option takes "
+                f"one value, so give --export once per file: --export {a} --export {b}") in text
+        assert not a.exists()
+    if second.endswith(".kml"):  # an existing file of no format read: said so, before any work
+        b.write_text("<kml/>")
+        result, text = run("estimate", EXAMPLES / "contact.rep", "--motion", "cv2d", "--export",
+                           a, b)
+        assert result.exit_code == 2
+        assert f"error: {b}: not a measurement file, and it stands after --export {a}" in text
+        assert not a.exists()
+
+
+def test_files_after_an_export_that_are_measurement_files_are_read_as_ever(tmp_path):
+    out = tmp_path / "solution.rep"
+    result, _ = run("estimate", "--export", out, *REPLAY, "--motion", "cv2d")
+    assert result.exit_code == 0, result.output
+    assert out.read_text().count(";TMA_POS:") > 1
+
+
+def test_a_list_option_given_a_second_value_says_so():
+    result, text = run("estimate", EXAMPLES / "bearings.csv", "--mapping",
+                       EXAMPLES / "bearings.toml", "--kinds", "bearing", "frequency")
+    assert result.exit_code == 2
+    assert ("error: frequency: no such file, and it stands after --kinds bearing: an option "
+            "takes one value (values of a list joined by commas)") in text

@@ -328,6 +328,8 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
 
     paths = [path] if isinstance(path, Path) else list(path)
     for p in paths:
+        if (stray := stray_value(p)) is not None:
+            raise fail(stray)
         if not p.exists():
             raise fail(f"{p}: no such file")
         if p.is_dir():
@@ -365,6 +367,43 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
         err.print(f"warning: --origin is for files with sensor_lat/sensor_lon; {paths[0].name} "
                   "gives ENU positions, so it is not used")
     return only_kinds(meas, kinds, paths)
+
+
+#: The running command's arguments as given, and its options that take a value (True: may be
+#: given several times), set by its parser (:class:`tmakit.cli.PlainCommand`).
+_GIVEN: dict[str, Any] = {"arguments": [], "takes": {}}
+
+
+def note_given(arguments: list[str], takes: dict[str, bool]) -> None:
+    """Remember the running command's arguments as given and the options that take a value."""
+    _GIVEN.update(arguments=list(arguments), takes=dict(takes))
+
+
+def stray_value(path: Path) -> str | None:
+    """Say why a file argument is an option's second value (``--export a.rep b.kml``), or None.
+
+    Only a file that is missing or of no format read, standing right after an option's value.
+    """
+    from ..io import find_format
+
+    if path.exists() and find_format(path, reading=True) is not None:
+        return None
+    given: list[str] = _GIVEN["arguments"]
+    takes: dict[str, bool] = _GIVEN["takes"]
+    for at, arg in enumerate(given[:given.index("--") if "--" in given else None]):
+        if at == 0 or arg.startswith("-") or Path(arg) != path:
+            continue
+        name, eq, value = given[at - 1].partition("=")
+        if not (eq and name in takes):
+            if at < 2 or given[at - 2] not in takes or given[at - 1].startswith("-"):
+                continue
+            name, value = given[at - 2], given[at - 1]
+        what = "no such file" if not path.exists() else "not a measurement file"
+        again = (f", so give {name} once per file: {name} {value} {name} {path}" if takes[name]
+                 else f" (values of a list joined by commas), so {path} was read as a "
+                 "measurement file")
+        return f"{path}: {what}, and it stands after {name} {value}: an option takes one value{again}"
+    return None
 
 
 def parse_kinds(text: str | None) -> list[str] | None:
