@@ -402,7 +402,8 @@ def stray_value(path: Path) -> str | None:
         again = (f", so give {name} once per file: {name} {value} {name} {path}" if takes[name]
                  else f" (values of a list joined by commas), so {path} was read as a "
                  "measurement file")
-        return f"{path}: {what}, and it stands after {name} {value}: an option takes one value{again}"
+        return (f"{path}: {what}, and it stands after {name} {value}: an option takes one "
+                f"value{again}")
     return None
 
 

@@ -28,7 +28,8 @@ __all__ = ["EPOCH_UNITS", "KNOT", "LATEST_NS", "PLAUSIBLE_YEARS", "SURFACE_TOLER
            "clock_time_problem", "clock_times", "course_speed_velocity", "csv_separator",
            "fill_altitudes", "fix_problems", "interpolate_heading", "interpolate_states",
            "iso_utc", "local_frame", "parse_clock_times", "relative_seconds",
-           "reversed_window", "seconds_of_time_text", "surface_dim", "time_origin_ns", "velocity_from_positions"]
+           "reversed_window", "seconds_of_time_text", "surface_dim", "time_origin_ns",
+           "velocity_from_positions"]
 
 
 #: Sensors whose altitudes all lie within this many metres of the origin's are on a surface
