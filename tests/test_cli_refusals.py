@@ -1,10 +1,11 @@
 """`tma` refuses what it cannot honour in words that name the option, file or row.
 
 The defects a new user's trials found (tenth session): a reversed Debrief window, a second file
-after one ``--export``, sigmas no angle can have."""
+after one ``--export``, sigmas beyond what their kind can mean (a bearing's above 180 deg)."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -82,3 +83,57 @@ def test_a_list_option_given_a_second_value_says_so():
     assert result.exit_code == 2
     assert ("error: frequency: no such file, and it stands after --kinds bearing: an option "
             "takes one value (values of a list joined by commas)") in text
+
+
+@pytest.mark.parametrize(("option", "message"), [
+    (["--bearing-sigma", "5000"], "--bearing-sigma 5000: expected a noise standard deviation of "
+                                  "at most 180 deg for a bearing (half a turn"),
+    (["--bearing-sigma", "sonar=500"], "--bearing-sigma sonar=500: expected a noise standard "
+                                       "deviation of at most 180 deg for a bearing"),
+    (["--bearing-sigma", "-1"], "--bearing-sigma -1: expected a noise standard deviation > 0 "
+                                "(deg)"),
+    (["--range-sigma", "1e12"], "--range-sigma 1e+12: expected a noise standard deviation of "
+                                "at most 1e+09 m for a range"),
+    (["--frequency-sigma", "0"], "--frequency-sigma 0: expected a noise standard deviation > 0 "
+                                 "(Hz)")])
+def test_a_sigma_option_beyond_its_kind_is_refused_naming_the_option(option, message):
+    """Was: --bearing-sigma 5000 fitted (every answer unobservable, a chi2 'too good to be
+    true'), and --bearing-sigma -1 was a 'problem in the measurement file'."""
+    result, text = run("estimate", EXAMPLES / "contact.rep", "--motion", "cv2d", *option)
+    assert result.exit_code == 2
+    assert f"error: {message}" in text and "problem in the measurement file" not in text
+
+
+def test_a_sigma_cell_beyond_its_kind_is_refused_naming_row_and_line(tmp_path):
+    meas = tk.load_scenario("hurtado2008").simulate(rng=1)
+    path = tmp_path / "obs.csv"
+    tk.write_measurements(meas, path)
+    lines = path.read_text().splitlines()
+    header = next(k for k, ln in enumerate(lines) if ln.startswith("time,"))
+    first = {kind: next(k for k, ln in enumerate(lines) if f",{kind}," in ln)
+             for kind in ("bearing", "range")}
+    for kind, sigma, unit in (("bearing", "1e9", "180 deg for a bearing"),
+                              ("range", "1e200", "1e+09 m for a range")):
+        edited = list(lines)
+        cells = edited[first[kind]].split(",")
+        cells[4] = sigma
+        edited[first[kind]] = ",".join(cells)
+        path.write_text("\n".join(edited) + "\n")
+        result, text = run("estimate", path)
+        assert result.exit_code == 2
+        assert (f"row {first[kind] - header} (line {first[kind] + 1}), column 'sigma': expected "
+                f"a noise standard deviation of at most {unit}") in text
+        with pytest.raises(ValueError, match=re.escape(f"at most {unit}")):
+            tk.read_measurements(path)
+
+
+def test_a_mapping_sigma_beyond_its_kind_is_refused_naming_the_mapping(tmp_path):
+    mapping = tmp_path / "big.toml"
+    mapping.write_text((EXAMPLES / "bearings.toml").read_text().replace(
+        "sigma = 1.0", "sigma = 4.0").replace('unit = "deg"', 'unit = "rad"').replace(
+        'track = "own.gpx"', f'track = "{EXAMPLES / "own.gpx"}"'))
+    result, text = run("estimate", EXAMPLES / "bearings.csv", "--mapping", mapping, "--motion",
+                       "cv2d")
+    assert result.exit_code == 2
+    assert (f"{mapping}: the column mapping is not valid: - measurement.0: sigma 4 rad: "
+            "expected a noise standard deviation of at most 180 deg for a bearing") in text

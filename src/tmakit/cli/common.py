@@ -290,7 +290,7 @@ def reader_options(format: str | None, ownship: str | None, contact: str | None,
 def bearing_sigmas(text: str | float) -> float | dict[str, float]:
     """Parse ``--bearing-sigma``: one std (deg), or ``NAME=DEG,...`` one per sensor."""
     try:
-        return float(text)
+        return sigma_option("--bearing-sigma", text, float(text), "bearing")
     except ValueError:
         pass
     out: dict[str, float] = {}
@@ -303,7 +303,32 @@ def bearing_sigmas(text: str | float) -> float | dict[str, float]:
         if not eq or not name.strip():
             raise fail(f"--bearing-sigma {text!r}: expected a std in degrees (0.5), or one per "
                        "sensor, NAME=DEG,... (HM=0.5,TA=2)") from None
+        sigma_option("--bearing-sigma", text, out[name.strip()], "bearing")
     return out
+
+
+def sigma_options(options: dict[str, Any]) -> dict[str, Any]:
+    """Check the sigma options of Debrief replays; ``--bearing-sigma`` as ``bearing_sigma_deg``."""
+    if "bearing_sigma" in options:  # --bearing-sigma is in degrees
+        options["bearing_sigma_deg"] = bearing_sigmas(options.pop("bearing_sigma"))
+    for kind in ("range", "frequency"):
+        if (sigma := options.get(f"{kind}_sigma")) is not None:
+            sigma_option(f"--{kind}-sigma", f"{sigma:g}", sigma, kind)
+    return options
+
+
+def sigma_option(option: str, text: object, sigma: float, kind: str) -> float:
+    """Refuse a sigma option (file unit) that is not > 0 or above its kind's ceiling."""
+    from ..measurements import KINDS
+    from ..rules import sigma_ceiling, sigma_ceiling_text
+
+    limit = sigma_ceiling(kind)
+    if not sigma > 0:
+        raise fail(f"{option} {text}: expected a noise standard deviation > 0 "
+                   f"({KINDS[kind].file_unit})")
+    if limit is not None and sigma > limit:
+        raise fail(f"{option} {text}: expected {sigma_ceiling_text(kind)}")
+    return sigma
 
 
 class FaultInWrittenLines(typer.Exit):
@@ -337,8 +362,7 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
     options = {k: v for k, v in options.items() if v is not None}
     kinds = parse_kinds(options.pop("kinds", None))
     options = log_options(paths, options, kinds)
-    if "bearing_sigma" in options:  # --bearing-sigma is in degrees
-        options["bearing_sigma_deg"] = bearing_sigmas(options.pop("bearing_sigma"))
+    options = sigma_options(options)
     try:
         meas = read_measurements(paths[0] if len(paths) == 1 else paths, origin=origin, **options)
     except OSError as e:

@@ -508,6 +508,8 @@ def _default_sigmas(path: Path, bearing: float | None, range_: float | None,
                "frequency": DEFAULT_FREQUENCY_SIGMA_HZ}
     sig = {k: default[k] if v is None else v for k, v in given.items()}
     bad = [f"{k} sigma {v!r}: expected a number > 0" for k, v in sig.items() if not v > 0]
+    bad += [f"{k} sigma {v!r}: expected {rules.sigma_ceiling_text(k)}" for k, v in sig.items()
+            if v > (rules.sigma_ceiling(k) or np.inf)]
     if bad:
         raise MeasurementFileError(path, bad)
     return sig, {k for k, v in given.items() if v is not None}
@@ -574,6 +576,9 @@ def _sigma_by_sensor(where: Path, cuts: _Cuts, by_sensor: dict[str, float]) -> d
                        f"from it (sensors: {_listed(names)})")
         elif not (isinstance(value, int | float) and value > 0):
             bad.append(f"bearing sigma of sensor {key!r}: {value!r}, expected a number > 0 (deg)")
+        elif value > (rules.sigma_ceiling("bearing") or np.inf):
+            bad.append(f"bearing sigma of sensor {key!r}: {value!r}, expected "
+                       f"{rules.sigma_ceiling_text('bearing')}")
         else:
             out[name] = float(np.deg2rad(value))
     if bad:
