@@ -137,3 +137,17 @@ def test_a_mapping_sigma_beyond_its_kind_is_refused_naming_the_mapping(tmp_path)
     assert result.exit_code == 2
     assert (f"{mapping}: the column mapping is not valid: - measurement.0: sigma 4 rad: "
             "expected a noise standard deviation of at most 180 deg for a bearing") in text
+
+
+@pytest.mark.parametrize(("option", "message"), [
+    (["--dim", "4"], "error: --dim 4: expected 2 or 3"),
+    (["--init-window", "0"], "error: --init-window: expected a whole number of measurement "
+                             "times from 1 to 720, got 0"),
+    (["--start-std", "-1"], "error: --start-std must be > 0, got -1.0")])
+def test_track_options_are_named_as_the_user_gave_them(option, message):
+    """Was: "contact.rep: 1 problem in the measurement file: dim must be 2 or 3" (the file
+    blamed for an option), "init_window: ..." and "max_relative_std must be > 0" (the library's
+    keywords, not the options)."""
+    result, text = run("track", EXAMPLES / "contact.rep", *option)
+    assert result.exit_code == 2
+    assert message in text and "problem in the measurement file" not in text

@@ -174,6 +174,13 @@ def max_manoeuvres() -> int:
         return 5
 
 
+def check_dim(dim: int | None) -> int | None:
+    """Refuse ``--dim`` other than 2 or 3 (None: chosen from the data)."""
+    if dim not in (None, 2, 3):
+        raise fail(f"--dim {dim}: expected 2 or 3")
+    return dim
+
+
 def model_options(drift: bool, free_exponent: bool, propagation_speed: float | None = None
                   ) -> dict[str, dict[str, object]]:
     """Return the model options of ``--drift``, ``--free-exponent`` and ``--propagation-speed``."""

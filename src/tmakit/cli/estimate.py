@@ -21,6 +21,7 @@ from .common import (
     PropagationSpeedOption,
     RefTimeOption,
     SensorPositionSigmaOption,
+    check_dim,
     check_output,
     check_outputs,
     check_ref_time,
@@ -239,8 +240,7 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
     if sensor_position_sigma is not None:
         return sensor_error_fitter(meas, motion, ref_time, method, options, sensor_position_sigma)
     exact, criterion, alpha, accelerations = manoeuvre
-    if dim not in (None, 2, 3):
-        raise fail(f"--dim {dim}: expected 2 or 3")
+    check_dim(dim)
     name = motion if motion is not None else meas.metadata.get("motion")
     if name is not None and getattr(motion_or_fail(name, ref_time, meas), "manoeuvres",
                                                 None) is not None:

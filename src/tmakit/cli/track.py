@@ -23,6 +23,7 @@ from .common import (
     FreeExponentOption,
     OriginOption,
     PropagationSpeedOption,
+    check_dim,
     check_outputs,
     check_particles,
     err,
@@ -191,7 +192,7 @@ def track(
     check_sums(sums, filter_name, as_json, follow)
     check_units(units)
     page = check_solution_outputs(html, None, force, [*files], taken=[plot]).html
-    reading = (parse_origin(origin), dim, reader_options(**logs))
+    reading = (parse_origin(origin), check_dim(dim), reader_options(**logs))
     options = model_options(drift, free_exponent, propagation_speed)
     tracked = partial(track_files, reading=reading, window=(start, stop), q=(q, q_density),
                       filter_name=filter_name,
@@ -793,7 +794,8 @@ MIN_PARTICLES = 7
 #: The flags of `tma track` for the library parameters its errors name.
 TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--prior-std",
                "max_relative_std": "--start-std", "tracker": "--filter",
-               "q_density": "--q-density", "bearing_prior": "--range-prior"}
+               "q_density": "--q-density", "bearing_prior": "--range-prior",
+               "init_window": "--init-window"}
 
 
 def tracking_failure(e: Any) -> typer.Exit:
@@ -803,7 +805,10 @@ def tracking_failure(e: Any) -> typer.Exit:
     names = dict(TRACK_FLAGS)
     if isinstance(e, MissingNuisanceError):
         names["nuisance"] = ("nuisance={...}; --nuisance " + ",".join(f"{n}=..." for n in e.names))
-    return fail(e.render(names))
+    message = e.render(names)
+    if e.parameter in names and message.startswith(e.parameter):  # "init_window: expected ..."
+        message = names[e.parameter] + message.removeprefix(e.parameter)
+    return fail(message)
 
 
 def check_track_options(output: Path | None, plot: Path | None, force: bool,
