@@ -151,3 +151,16 @@ def test_track_options_are_named_as_the_user_gave_them(option, message):
     result, text = run("track", EXAMPLES / "contact.rep", *option)
     assert result.exit_code == 2
     assert message in text and "problem in the measurement file" not in text
+
+
+@pytest.mark.parametrize(("option", "message"), [
+    (["--settle", "-5"], "error: --settle -5: expected a time >= 0 (s)"),
+    (["--alpha", "2"], "error: --alpha 2: expected a significance level in (0, 1)"),
+    (["--criterion", "foo"], "error: --criterion 'foo': expected bic or lrt"),
+    (["--accelerations", "maybe"], "error: --accelerations 'maybe': expected select or all")])
+def test_estimate_options_are_named_as_the_user_gave_them(option, message):
+    """Was: "settle_s -5.0: ..." after reading and resolving a replay, "alpha must lie in
+    (0, 1)", "criterion must be one of ...": the library's keywords, not the options."""
+    result, text = run("estimate", *REPLAY, "--motion", "curvilinear", *option)
+    assert result.exit_code == 2
+    assert message in text

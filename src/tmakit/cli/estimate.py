@@ -154,6 +154,7 @@ def estimate(
     Own-ship legs, turn cuts and towed-array ambiguity: docs/analyst.md.
     """
     check_units(units)
+    check_fit_options(settle, criterion, alpha, accelerations)
     plot = check_output(plot, "--plot", force, "picture", files)
     model = model_options(drift, free_exponent, propagation_speed)
     more = check_solution_outputs(html, export, force, list(files), export_every, export_rb,
@@ -181,6 +182,21 @@ def estimate(
     warnings += manoeuvre_warnings(meas, result, model)
     print_estimate(meas, result, as_json, answer=answer, units=units, warnings=warnings,
                    factors=factors, plot=(plot, " + ".join(map(str, files)), model), more=more)
+
+
+def check_fit_options(settle: float | None, criterion: str | None, alpha: float | None,
+                      accelerations: str | None) -> None:
+    """Refuse --settle, --criterion, --alpha and --accelerations out of their range, by name."""
+    from ..batch.manoeuvre import ACCELERATIONS, CRITERIA
+
+    if settle is not None and not settle >= 0:
+        raise fail(f"--settle {settle:g}: expected a time >= 0 (s)")
+    if criterion is not None and criterion not in CRITERIA:
+        raise fail(f"--criterion {criterion!r}: expected {' or '.join(CRITERIA)}")
+    if alpha is not None and not 0 < alpha < 1:
+        raise fail(f"--alpha {alpha:g}: expected a significance level in (0, 1)")
+    if accelerations is not None and accelerations not in ACCELERATIONS:
+        raise fail(f"--accelerations {accelerations!r}: expected {' or '.join(ACCELERATIONS)}")
 
 
 def manoeuvre_warnings(meas: Any, result: Any, options: dict[str, Any]) -> list[Any]:
