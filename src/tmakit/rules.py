@@ -151,13 +151,15 @@ def sigma_ceiling(kind: str) -> float | None:
     """Give the largest sigma a kind's rows may state (file unit), or None (no limit).
 
     An angle on the circle (a wrapped kind): half a turn (180 deg), past which the noise
-    covers the whole circle; another kind with a range of values: that range's width.
+    covers the whole circle; another kind with a range of values bounded on both sides: that
+    range's width.
     """
     cls = KINDS[kind]
     if cls.wrap_period is not None:
         return cls.wrap_period / cls.file_scale / 2.0
-    if cls.value_range is not None:
-        return cls.value_range.high - cls.value_range.low
+    values = cls.value_range
+    if values is not None and values.low is not None and values.high is not None:
+        return values.high - values.low
     return None
 
 

@@ -64,7 +64,8 @@ class PlainCommand(TyperCommand):
     def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
         """Parse the arguments, noting them as given (:func:`tmakit.cli.common.stray_value`)."""
         note_given(args, {name: bool(p.multiple) for p in self.params
-                          if p.param_type_name == "option" and not (p.is_flag or p.count)
+                          if p.param_type_name == "option"
+                          and not (getattr(p, "is_flag", False) or getattr(p, "count", False))
                           for name in p.opts})
         return super().parse_args(ctx, args)
 

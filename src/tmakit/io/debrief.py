@@ -479,7 +479,7 @@ def _in_window(where: Path, rows: list[SensorLine], window: Sequence[str | None]
     except ValueError as e:
         raise MeasurementFileError(where, [str(e)]) from None
     if lo is not None and hi is not None and lo > hi:  # the options' fault, not the file's
-        raise ValueError(reversed_window(window[0], window[1], iso_utc(lo), iso_utc(hi)))
+        raise ValueError(reversed_window(str(window[0]), str(window[1]), iso_utc(lo), iso_utc(hi)))
     kept = [s for s in rows if (lo is None or s.time_ns >= lo) and (hi is None or s.time_ns <= hi)]
     if not kept:
         raise ValueError(

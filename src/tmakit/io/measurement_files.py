@@ -90,7 +90,8 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
     FileNotFoundError
         If the file does not exist.
     ValueError
-        If ``format`` names no registered format.
+        If ``format`` names no registered format, or ``window`` ends before it starts or
+        holds no cut.
     """
     bearing_sigma_deg = renamed_keyword("read_measurements", "bearing_sigma", bearing_sigma,
                                         "bearing_sigma_deg", bearing_sigma_deg, None)
