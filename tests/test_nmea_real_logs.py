@@ -458,3 +458,24 @@ def test_two_talkers_interleaving_without_a_common_time_are_refused(tmp_path):
     with pytest.raises(MeasurementFileError, match="the fixes of talkers GN and GP interleave "
                                                   "in time without one common time"):
         read_nmea_fixes(path)
+
+
+def test_a_log_with_binary_messages_is_read_by_import_as_by_a_mapping(tmp_path):
+    """Was: ``tma import nmea ac12_binary.log LOG`` refused the log as binary (its NUL bytes),
+    while the same log named by a mapping's ``track`` was read, its binary messages skipped."""
+    log = tmp_path / "log.csv"
+    log.write_text("epoch_s,bearing_deg\n" + "".join(
+        f"{1198434931 + k},{10 + k}\n" for k in range(3)))
+    mapping = tmp_path / "map.toml"
+    mapping.write_text('time = "epoch_s"\nsensor = "boat"\n\n[[measurement]]\n'
+                       'column = "bearing_deg"\nkind = "bearing"\nunit = "deg"\nsigma = 1.0\n')
+    fixes = read_track_fixes(DATA / "ac12_binary.log")
+    by_api = tk.read_measurements(DATA / "ac12_binary.log", format="nmea", measurements=log,
+                                  mapping=mapping)
+    assert len(by_api) == 3
+    assert fixes.time_ns[0] <= 1198434931 * 10**9 and fixes.time_ns[-1] >= 1198434933 * 10**9
+    out = tmp_path / "obs.csv"
+    result = CliRunner().invoke(app, ["import", "nmea", str(DATA / "ac12_binary.log"), str(log),
+                                      "--mapping", str(mapping), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert len(tk.read_measurements(out)) == 3

@@ -116,8 +116,10 @@ def _read_one(path: Path, origin: tuple[float, float, float] | None, format: str
             f"{suffix_text(registered_formats(reading=True))}"])
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such file")
-    refuse_unreadable(path, binary=fmt.name == "parquet" or path.suffix.lower() in (
-        ".parquet", ".pq"))  # a FIFO, a device, NUL bytes in a text format: at once
+    # a FIFO, a device, NUL bytes in a text format: at once (an NMEA log's reader sniffs its
+    # own bytes: a receiver's binary messages may lie between its sentences)
+    refuse_unreadable(path, binary=fmt.name in ("parquet", "nmea") or path.suffix.lower() in (
+        ".parquet", ".pq"))
     _refuse_foreign_options(fmt, options)
     return fmt.read(path, origin=origin, **options)
 
