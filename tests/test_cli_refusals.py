@@ -164,3 +164,18 @@ def test_estimate_options_are_named_as_the_user_gave_them(option, message):
     result, text = run("estimate", *REPLAY, "--motion", "curvilinear", *option)
     assert result.exit_code == 2
     assert message in text
+
+
+@pytest.mark.parametrize("command", [["estimate", "--motion", "cv2d"],
+                                     ["estimate", "--motion", "cv2d", "--leg", "1"], ["track"]])
+def test_a_file_with_a_header_and_no_rows_is_said_to_have_no_measurement(tmp_path, command):
+    """Was: "--motion cv2d: 4 parameters from 0 measurements cannot be identified", "--leg/--snap:
+    own-ship legs need one moving own ship ... the set has 0 sensor(s)", "the measurement set
+    is empty" (no file named)."""
+    path = tmp_path / "header.csv"
+    tk.write_measurements(tk.load_scenario("bearings-only-2d").simulate(rng=1), path)
+    path.write_text("".join(ln for ln in path.read_text().splitlines(keepends=True)
+                            if ln.startswith(("#", "time,"))))
+    result, text = run(command[0], path, *command[1:])
+    assert result.exit_code == 2
+    assert f"error: {path}: no measurement (a header without rows): nothing to estimate" in text

@@ -543,7 +543,16 @@ def select_window(meas: Any, start: str | None, stop: str | None) -> Any:
 def read_window(paths: list[Path], origin: Any, window: tuple[str | None, str | None],
                 **options: Any) -> Any:
     """Read the files and keep ``--from``/``--to`` (a replay's reader applies it first)."""
-    return select_window(read_or_fail(paths, origin, window=window, **options), *window)
+    return select_window(measured(read_or_fail(paths, origin, window=window, **options), paths),
+                         *window)
+
+
+def measured(meas: Any, paths: list[Path]) -> Any:
+    """Refuse a set without a row (a header alone) before any work is asked of it."""
+    if len(meas) == 0:
+        raise fail(f"{' + '.join(map(str, paths))}: no measurement (a header without rows): "
+                   "nothing to estimate or track")
+    return meas
 
 
 def window_help(purpose: str, end: str) -> str:

@@ -29,6 +29,7 @@ from .common import (
     fail,
     failing,
     file_ref_time,
+    measured,
     model_options,
     motion_or_fail,
     note_unused_model_options,
@@ -215,7 +216,7 @@ def read_leg_window(files: list[Path], origin: Any, options: dict[str, Any],
     start, stop = window
     if leg is None and not snap:  # a replay's window is applied before its reader's checks
         return read_window(files, origin, window, **options), None
-    meas = read_or_fail(files, origin, window=(None, None), **options)
+    meas = measured(read_or_fail(files, origin, window=(None, None), **options), files)
     start, stop, legs = leg_window(meas, leg, start, stop, snap, turn_rate)
     return select_window(meas, start, stop), legs
 
