@@ -263,7 +263,7 @@ def fit_leg(root: Path, s: SampleSet, leg: tuple[int, int, float, float]) -> Leg
         meas = tk.read_measurements(files if len(files) > 1 else files[0], ownship=s.ownship,
                                     contact=s.contact, kinds=KINDS,
                                     window=(iso_utc(start), iso_utc(end)))
-    except tk.MeasurementFileError as e:
+    except ValueError as e:  # (an empty window is the window's fault, not the files')
         if "no cut between" not in str(e):
             raise
         return LegResult(s.name, start, end, course, speed, 0, "too few cuts",

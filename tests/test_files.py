@@ -14,6 +14,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from tmakit import rules
 from tmakit.core.geodesy import geodetic_to_enu
 from tmakit.data import MeasurementSet
 from tmakit.io.measurement_files import (
@@ -170,8 +171,9 @@ def random_sets(draw) -> MeasurementSet:
             ref[i] = draw(st.lists(finite, min_size=6, max_size=6))
     sensor = draw(st.sampled_from(["1", "007", "uav-1", "NaN", "a,b", ' q"x ']))
     values = [draw(_VALUES[k]) for k in kinds]
-    sigmas = [draw(st.floats(min_value=1e-12 * max(abs(v), 1.0), allow_infinity=False))
-              for v in values]
+    sigmas = [draw(st.floats(min_value=1e-12 * max(abs(v), 1.0), allow_infinity=False,
+                             max_value=rules.sigma_ceiling(k) or None))
+              for k, v in zip(kinds, values, strict=True)]
     state = np.array(draw(st.lists(st.floats(-1e9, 1e9), min_size=3 * n, max_size=3 * n))
                      + draw(st.lists(st.floats(-2.99e8, 2.99e8), min_size=3 * n, max_size=3 * n)))
     state = np.concatenate([state[:3 * n].reshape(n, 3), state[3 * n:].reshape(n, 3)], axis=1)

@@ -171,7 +171,8 @@ def test_replay_range_and_frequency_sigmas_from_the_command_line(tmp_path):
     shown = run("show", rep, "--range-sigma", "30")
     assert shown.exit_code == 0 and "30" in shown.output
     bad = run("import", "rep", rep, "--range-sigma", "-1", "-o", tmp_path / "b.csv")
-    assert bad.exit_code == 2 and "range sigma -1.0: expected a number > 0" in bad.output
+    assert bad.exit_code == 2 and ("--range-sigma -1: expected a noise standard deviation > 0 "
+                                   "(m)") in bad.output
 
 
 def test_import_refuses_a_track_whose_suffix_says_the_other_format(tmp_path):

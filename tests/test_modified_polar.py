@@ -105,8 +105,9 @@ def test_prediction_is_exact_under_constant_velocity_and_an_accelerating_own_shi
     assert np.allclose(f.state, phi @ x0, rtol=1e-12)
     assert np.allclose(f.covariance, phi @ p0 @ phi.T + dyn.noise(40.0), rtol=1e-9)
     turned = np.array([5500.0, 1200.0, 3000.0, 20.0, 148.0, 0.0])  # it turned north
+    # no information: a sigma of 1e4 rad, beyond the rules' half turn, so built unchecked
     row = tk.MeasurementSet.from_si(np.array([40.0]), ["own ship"], ["bearing"], np.array([0.3]),
-                                    np.array([1e4]), turned[None])
+                                    np.array([1e4]), turned[None], check=False)
     f.update(row)
     assert np.allclose(f.state, phi @ x0, rtol=1e-9, atol=1e-3)
     assert f.modified_polar[0][:2] == pytest.approx(

@@ -149,9 +149,14 @@ def test_debrief_sample_gives_the_subjects_true_course_and_speed(tmp_path):
 
 
 def test_track_follows_several_tonals_from_the_command(tmp_path):
+    """Both tonals' f0 are in the start. The EKF's track, its start's f0 held, ends 555 m and
+    6.8 sigma from Freq_RedTrack at 14:00, its last 30 updates' innovations 5.3 times the
+    variance allowed: it has diverged (no answer, exit 4), and says so."""
     result = runner.invoke(app, ["track", *_second_tonal(tmp_path), "--json"])
-    assert result.exit_code == 0, result.output
-    start = json.loads(result.stdout)["start"]
+    assert result.exit_code == 4, result.output
+    data = json.loads(result.stdout)
+    assert data["trust"] == "none" and data["trust_reasons"][0]["code"] == "diverged"
+    start = data["start"]
     assert {"carrier[NB_FREQ]", "carrier[NB_FREQ2]"} <= set(start["nuisance"])
 
 

@@ -375,3 +375,107 @@ def test_following_an_own_track_alone_is_refused_at_once_not_awaited(tmp_path):
         assert result.exit_code == 2, result.output
         assert "a GPX or NMEA own track gives the sensor's positions only; follow the " \
                "measurement log" in " ".join(result.output.split())
+
+
+OWN = Path(tk.__file__).parent / "examples" / "own.nmea"
+
+
+def sentence(body: str) -> str:
+    checksum = 0
+    for c in body.encode():
+        checksum ^= c
+    return f"${body}*{checksum:02X}"
+
+
+def second_receiver(talker: str, kinds: tuple[str, ...], north_m: float,
+                    seconds: float = 0.0) -> list[str]:
+    """own.nmea's RMC/GGA fixes again from another receiver: ``north_m`` further north,
+    ``seconds`` later, under ``talker``."""
+    lines = []
+    for line in OWN.read_text().splitlines():
+        fields = line.split("*")[0].lstrip("$").split(",")
+        if fields[0][2:] not in kinds:
+            continue
+        at = 3 if fields[0].endswith("RMC") else 2
+        fields[at] = f"{float(fields[at]) + north_m / 1852.0:.6f}"
+        clock = float(fields[1]) + seconds
+        fields[1] = f"{int(clock // 10000):02d}{int(clock % 10000 // 100):02d}{clock % 100:05.2f}"
+        lines.append(sentence(",".join([talker + fields[0][2:], *fields[1:]])))
+    return lines
+
+
+def two_logs(tmp_path, extra: list[str]) -> Path:
+    """own.nmea with a second receiver's sentences, each after the first's of its fix."""
+    own = OWN.read_text().splitlines()
+    merged, k = [], 0
+    for line in own:
+        merged.append(line)
+        if line.startswith("$HEHDT") and k < len(extra):
+            merged.append(extra[k])
+            k += 1
+    path = tmp_path / "two.nmea"
+    path.write_text("\n".join(merged) + "\n")
+    return path
+
+
+@pytest.mark.parametrize(("talker", "kinds"), [("GN", ("RMC",)), ("GP", ("GGA",))])
+def test_two_receivers_giving_positions_at_one_time_are_refused_naming_the_talkers(
+        tmp_path, talker, kinds):
+    """Was: a $GPRMC/$GPGGA receiver and a $GNRMC one 20 m apart (or two GGA streams) merged
+    into one track, fix by fix, silently."""
+    path = two_logs(tmp_path, second_receiver(talker, kinds, north_m=20.0))
+    with pytest.raises(MeasurementFileError) as caught:
+        read_nmea_fixes(path)
+    text = str(caught.value)
+    assert str(path) in text
+    assert (f"line 1 ($GPRMC) and line 5 (${talker}{kinds[0]}): two positions 20 m apart at "
+            "2026-05-04T09:30:00Z") in text or (
+        f"line 2 ($GPGGA) and line 5 (${talker}{kinds[0]}): two positions 20 m apart at "
+        "2026-05-04T09:30:00Z") in text
+    named = "talkers GN, GP" if talker == "GN" else "talker GP"
+    assert f"a log of two receivers ({named})? A sensor is at one place at a time" in text
+    result = CliRunner().invoke(app, ["import", "nmea", str(path),
+                                      str(OWN.with_name("bearings.csv")), "--mapping",
+                                      str(OWN.with_name("bearings.toml")), "-o",
+                                      str(tmp_path / "out.csv")])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert "two positions 20 m apart" in " ".join(result.output.split())
+    assert not (tmp_path / "out.csv").exists()
+
+
+def test_two_talkers_of_one_receiver_agreeing_are_read_as_one_with_a_note(tmp_path):
+    path = two_logs(tmp_path, second_receiver("GN", ("RMC",), north_m=0.0))
+    fixes = read_nmea_fixes(path)
+    alone = read_nmea_fixes(OWN)
+    np.testing.assert_array_equal(fixes.time_ns, alone.time_ns)
+    np.testing.assert_allclose(fixes.lat, alone.lat, rtol=0, atol=1e-9)
+    assert any("talkers GN and GP give positions within 1 m of each other at their 241 "
+               "common times: read as one receiver" in n for n in fixes.notes)
+
+
+def test_two_talkers_interleaving_without_a_common_time_are_refused(tmp_path):
+    path = two_logs(tmp_path, second_receiver("GN", ("RMC",), north_m=0.0, seconds=2.5))
+    with pytest.raises(MeasurementFileError, match="the fixes of talkers GN and GP interleave "
+                                                  "in time without one common time"):
+        read_nmea_fixes(path)
+
+
+def test_a_log_with_binary_messages_is_read_by_import_as_by_a_mapping(tmp_path):
+    """Was: ``tma import nmea ac12_binary.log LOG`` refused the log as binary (its NUL bytes),
+    while the same log named by a mapping's ``track`` was read, its binary messages skipped."""
+    log = tmp_path / "log.csv"
+    log.write_text("epoch_s,bearing_deg\n" + "".join(
+        f"{1198434931 + k},{10 + k}\n" for k in range(3)))
+    mapping = tmp_path / "map.toml"
+    mapping.write_text('time = "epoch_s"\nsensor = "boat"\n\n[[measurement]]\n'
+                       'column = "bearing_deg"\nkind = "bearing"\nunit = "deg"\nsigma = 1.0\n')
+    fixes = read_track_fixes(DATA / "ac12_binary.log")
+    by_api = tk.read_measurements(DATA / "ac12_binary.log", format="nmea", measurements=log,
+                                  mapping=mapping)
+    assert len(by_api) == 3
+    assert fixes.time_ns[0] <= 1198434931 * 10**9 and fixes.time_ns[-1] >= 1198434933 * 10**9
+    out = tmp_path / "obs.csv"
+    result = CliRunner().invoke(app, ["import", "nmea", str(DATA / "ac12_binary.log"), str(log),
+                                      "--mapping", str(mapping), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert len(tk.read_measurements(out)) == 3

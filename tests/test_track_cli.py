@@ -6,6 +6,7 @@ the same bearings-only file (particle filters with few particles and a seed)."""
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -367,18 +368,48 @@ def test_truth_comes_from_the_metadata_in_the_scenario_layer():
     assert truth_states(meas, [0.0], 2) is None
 
 
-def test_track_json_carries_trust_warning_when_the_innovations_are_inconsistent(obs, tmp_path):
+def test_a_diverged_track_says_trust_none_and_gives_no_answer(obs, tmp_path):
     """A consistent EKF track says trust ok; the CV EKF on the manoeuvring hoerst2010 target
-    (its innovations far larger than its covariances allow) says warning, with the reason."""
+    (kilometres and tens of sigma off at the end, its last innovations many times the variance its
+    covariances allow) has diverged: trust none, no answer, exit status 4, text and JSON.
+    Was: trust warning, exit 0, and the final position printed as the answer with a 131 m std."""
     good = json.loads(run("track", obs, "--filter", "ekf", "--json").output)
-    assert good["trust"] == "ok" and good["trust_reasons"] == []
+    assert good["trust"] == "ok" and good["trust_reasons"] == [] and good["answer"] is not None
     path = tmp_path / "hoerst.csv"
     tk.write_measurements(tk.load_scenario("hoerst2010").simulate(rng=1), path)
     result = run("track", path, "--filter", "ekf", "--json")
-    assert result.exit_code == 0, result.output
+    assert result.exit_code == 4, result.output
     bad = json.loads(result.output.splitlines()[0])
-    assert bad["trust"] == "warning"
-    assert bad["trust_reasons"][0]["code"] == "inconsistent-innovations"
+    assert set(bad) == set(good)  # the same keys
+    assert bad["trust"] == "none" and bad["answer"] is None
+    assert [r["code"] for r in bad["trust_reasons"]][:2] == ["diverged",
+                                                            "inconsistent-innovations"]
+    assert bad["trust_reasons"][0]["message"].startswith("no answer: the track has diverged")
+    text = run("track", path, "--filter", "ekf")
+    assert text.exit_code == 4
+    words = " ".join(text.stdout.split())
+    assert re.search(r"no answer: the track has diverged: over its last \d+ updates", words)
+    assert "trust: none (diverged, inconsistent-innovations)" in words
+    assert "emitter at t =" not in words  # no answers table
+
+
+def test_a_track_inconsistent_early_but_not_at_its_end_is_a_warning_not_diverged():
+    from types import SimpleNamespace
+
+    from tmakit.cli.track import divergence_verdict, nis_verdict
+
+    def track(nis_per_dof):  # one-dof updates, the first row the start
+        nis = np.r_[np.nan, nis_per_dof]
+        return SimpleNamespace(nis=nis, dof=np.r_[0, np.ones(nis.size - 1, dtype=int)],
+                               times=np.arange(nis.size, dtype=float))
+
+    recovered = track(np.r_[np.full(100, 20.0), np.ones(300)])
+    assert nis_verdict(recovered) and divergence_verdict(recovered) == ""
+    lost = track(np.r_[np.ones(300), np.full(100, 20.0)])
+    assert "the track has diverged: over its last 100 updates (from t = 301 s)" in (
+        divergence_verdict(lost))
+    mild = track(np.r_[np.ones(300), np.full(100, 1.8)])  # overconfident, not lost: a warning
+    assert divergence_verdict(mild) == ""
 
 
 def test_a_negative_seed_is_refused_naming_the_option(tmp_path):

@@ -23,7 +23,8 @@ __all__ = ["FINITE", "GEO_RANGES", "LATITUDE", "LONGITUDE", "OUTLIER_SPANS", "PO
            "SIGMA_FLOOR", "SIGMA_POSITIVE", "SIGMA_RESOLVED", "TIME", "VELOCITY", "CellRule",
            "broken_rows", "cell_rules", "check_set", "column_problems", "decreasing_times",
            "duplicate_rows", "far_times", "geo_within", "metadata_problems", "raise_problems",
-           "sigma_resolved", "state_within_reach", "time_problem"]
+           "sigma_ceiling", "sigma_ceiling_text", "sigma_resolved", "state_within_reach",
+           "time_problem"]
 
 #: What a time must be (s).
 TIME = (f"a time within [-{TIME_LIMIT_S:g}, {TIME_LIMIT_S:g}] s of the time origin (317 years; "
@@ -146,6 +147,39 @@ def _value_rules() -> tuple[tuple[int, str, Callable[..., NDArray[np.bool_]]], .
         for code, cls in enumerate(KINDS.values()) if cls.value_range is not None)
 
 
+def sigma_ceiling(kind: str) -> float | None:
+    """Give the largest sigma a kind's rows may state (file unit), or None (no limit).
+
+    An angle on the circle (a wrapped kind): half a turn (180 deg), past which the noise
+    covers the whole circle; another kind with a range of values bounded on both sides: that
+    range's width.
+    """
+    cls = KINDS[kind]
+    if cls.wrap_period is not None:
+        return cls.wrap_period / cls.file_scale / 2.0
+    values = cls.value_range
+    if values is not None and values.low is not None and values.high is not None:
+        return values.high - values.low
+    return None
+
+
+def sigma_ceiling_text(kind: str) -> str:
+    """Say what a kind's sigma must be: at most :func:`sigma_ceiling`, and why."""
+    cls, limit = KINDS[kind], sigma_ceiling(kind)
+    unit = "dB" if cls.file_unit.startswith("dB") else cls.file_unit
+    why = ("half a turn: the noise then covers the circle" if cls.wrap_period is not None
+           else "the width of its range of values: the noise then covers every value")
+    noun = f"a {kind}" if cls.value_range is None else cls.value_range.noun
+    return f"a noise standard deviation of at most {limit:g} {unit} for {noun} ({why})"
+
+
+def _sigma_ceiling_rules() -> list[CellRule]:
+    """Each bounded kind's rule: a sigma no larger than :func:`sigma_ceiling`."""
+    return [CellRule("sigma", sigma_ceiling_text(kind), ("kind_code", "sigma"),
+                     _of_kind(code, lambda s, limit=limit: s > limit))
+            for code, kind in enumerate(KINDS) if (limit := sigma_ceiling(kind)) is not None]
+
+
 def _sigma_unresolved(kind: NDArray[np.integer], value: NDArray[np.float64],
                       sigma: NDArray[np.float64]) -> NDArray[np.bool_]:
     moot = ~np.isfinite(value)  # no value, or one out of its range: its sigma is moot
@@ -172,6 +206,7 @@ def cell_rules() -> tuple[CellRule, ...]:
         rules += [CellRule(c, FINITE, (c,), _non_finite)] * (c != "time")
         rules.append(CellRule(c, what, (c,), test))
     rules.append(CellRule("sigma", SIGMA_POSITIVE, ("sigma",), lambda s: np.isfinite(s) & ~(s > 0)))
+    rules += _sigma_ceiling_rules()
     for code, cls in enumerate(KINDS.values()):
         if cls.sensor_at_origin:
             rules.append(CellRule(None, "the ENU origin (0, 0, 0) as the sensor position of an "

@@ -8,6 +8,7 @@ from typing import Annotated, Any
 import typer
 from typer.core import TyperCommand
 
+from .common import note_given
 from .crlb import crlb, gdop
 from .estimate import estimate, report
 from .guard import WRITE_ERRORS, guarded, install_sigterm, set_debug, write_failed
@@ -59,6 +60,14 @@ def argument_label(argument: Any, usage: bool) -> str:
 
 class PlainCommand(TyperCommand):
     """A typer command whose help names values (``--seed N``) instead of types (``<int>``)."""
+
+    def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
+        """Parse the arguments, noting them as given (:func:`tmakit.cli.common.stray_value`)."""
+        note_given(args, {name: bool(p.multiple) for p in self.params
+                          if p.param_type_name == "option"
+                          and not (getattr(p, "is_flag", False) or getattr(p, "count", False))
+                          for name in p.opts})
+        return super().parse_args(ctx, args)
 
     def collect_usage_pieces(self, ctx: Any) -> list[str]:
         """Usage line pieces: ``[OPTIONS]`` then the arguments by name."""

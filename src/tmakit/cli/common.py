@@ -172,6 +172,13 @@ def max_manoeuvres() -> int:
         return 5
 
 
+def check_dim(dim: int | None) -> int | None:
+    """Refuse ``--dim`` other than 2 or 3 (None: chosen from the data)."""
+    if dim not in (None, 2, 3):
+        raise fail(f"--dim {dim}: expected 2 or 3")
+    return dim
+
+
 def model_options(drift: bool, free_exponent: bool, propagation_speed: float | None = None
                   ) -> dict[str, dict[str, object]]:
     """Return the model options of ``--drift``, ``--free-exponent`` and ``--propagation-speed``."""
@@ -282,7 +289,7 @@ def check_ranges(ranges: str | None) -> None:
 def bearing_sigmas(text: str | float) -> float | dict[str, float]:
     """Parse ``--bearing-sigma``: one std (deg), or ``NAME=DEG,...`` one per sensor."""
     try:
-        return float(text)
+        return sigma_option("--bearing-sigma", text, float(text), "bearing")
     except ValueError:
         pass
     out: dict[str, float] = {}
@@ -295,7 +302,32 @@ def bearing_sigmas(text: str | float) -> float | dict[str, float]:
         if not eq or not name.strip():
             raise fail(f"--bearing-sigma {text!r}: expected a std in degrees (0.5), or one per "
                        "sensor, NAME=DEG,... (HM=0.5,TA=2)") from None
+        sigma_option("--bearing-sigma", text, out[name.strip()], "bearing")
     return out
+
+
+def sigma_options(options: dict[str, Any]) -> dict[str, Any]:
+    """Check the sigma options of Debrief replays; ``--bearing-sigma`` as ``bearing_sigma_deg``."""
+    if "bearing_sigma" in options:  # --bearing-sigma is in degrees
+        options["bearing_sigma_deg"] = bearing_sigmas(options.pop("bearing_sigma"))
+    for kind in ("range", "frequency"):
+        if (sigma := options.get(f"{kind}_sigma")) is not None:
+            sigma_option(f"--{kind}-sigma", f"{sigma:g}", sigma, kind)
+    return options
+
+
+def sigma_option(option: str, text: object, sigma: float, kind: str) -> float:
+    """Refuse a sigma option (file unit) that is not > 0 or above its kind's ceiling."""
+    from ..measurements import KINDS
+    from ..rules import sigma_ceiling, sigma_ceiling_text
+
+    limit = sigma_ceiling(kind)
+    if not sigma > 0:
+        raise fail(f"{option} {text}: expected a noise standard deviation > 0 "
+                   f"({KINDS[kind].file_unit})")
+    if limit is not None and sigma > limit:
+        raise fail(f"{option} {text}: expected {sigma_ceiling_text(kind)}")
+    return sigma
 
 
 class FaultInWrittenLines(typer.Exit):
@@ -320,6 +352,8 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
 
     paths = [path] if isinstance(path, Path) else list(path)
     for p in paths:
+        if (stray := stray_value(p)) is not None:
+            raise fail(stray)
         if not p.exists():
             raise fail(f"{p}: no such file")
         if p.is_dir():
@@ -327,8 +361,7 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
     options = {k: v for k, v in options.items() if v is not None}
     kinds = parse_kinds(options.pop("kinds", None))
     options = log_options(paths, options, kinds)
-    if "bearing_sigma" in options:  # --bearing-sigma is in degrees
-        options["bearing_sigma_deg"] = bearing_sigmas(options.pop("bearing_sigma"))
+    options = sigma_options(options)
     try:
         meas = read_measurements(paths[0] if len(paths) == 1 else paths, origin=origin, **options)
     except OSError as e:
@@ -357,6 +390,44 @@ def read_or_fail(path: Path | list[Path], origin: tuple[float, float, float] | N
         err.print(f"warning: --origin is for files with sensor_lat/sensor_lon; {paths[0].name} "
                   "gives ENU positions, so it is not used")
     return only_kinds(meas, kinds, paths)
+
+
+#: The running command's arguments as given, and its options that take a value (True: may be
+#: given several times), set by its parser (:class:`tmakit.cli.PlainCommand`).
+_GIVEN: dict[str, Any] = {"arguments": [], "takes": {}}
+
+
+def note_given(arguments: list[str], takes: dict[str, bool]) -> None:
+    """Remember the running command's arguments as given and the options that take a value."""
+    _GIVEN.update(arguments=list(arguments), takes=dict(takes))
+
+
+def stray_value(path: Path) -> str | None:
+    """Say why a file argument is an option's second value (``--export a.rep b.kml``), or None.
+
+    Only a file that is missing or of no format read, standing right after an option's value.
+    """
+    from ..io import find_format
+
+    if path.exists() and find_format(path, reading=True) is not None:
+        return None
+    given: list[str] = _GIVEN["arguments"]
+    takes: dict[str, bool] = _GIVEN["takes"]
+    for at, arg in enumerate(given[:given.index("--") if "--" in given else None]):
+        if at == 0 or arg.startswith("-") or Path(arg) != path:
+            continue
+        name, eq, value = given[at - 1].partition("=")
+        if not (eq and name in takes):
+            if at < 2 or given[at - 2] not in takes or given[at - 1].startswith("-"):
+                continue
+            name, value = given[at - 2], given[at - 1]
+        what = "no such file" if not path.exists() else "not a measurement file"
+        again = (f", so give {name} once per file: {name} {value} {name} {path}" if takes[name]
+                 else f" (values of a list joined by commas), so {path} was read as a "
+                 "measurement file")
+        return (f"{path}: {what}, and it stands after {name} {value}: an option takes one "
+                f"value{again}")
+    return None
 
 
 def parse_kinds(text: str | None) -> list[str] | None:
@@ -442,8 +513,9 @@ def window_times(meas: Any, start: str | None, stop: str | None) -> tuple[float 
     """Parse ``--from`` and ``--to`` (seconds, or None), refusing a window that ends first."""
     t_from, t_to = parse_time(start, meas, "--from"), parse_time(stop, meas, "--to")
     if t_from is not None and t_to is not None and t_from > t_to:
-        raise fail(f"--from {start} is after --to {stop} ({t_from:g} s > {t_to:g} s): give the "
-                   "leg's start first")
+        from ..io.logs import reversed_window
+
+        raise fail(reversed_window(str(start), str(stop), f"{t_from:g} s", f"{t_to:g} s"))
     return t_from, t_to
 
 
@@ -463,7 +535,16 @@ def select_window(meas: Any, start: str | None, stop: str | None) -> Any:
 def read_window(paths: list[Path], origin: Any, window: tuple[str | None, str | None],
                 **options: Any) -> Any:
     """Read the files and keep ``--from``/``--to`` (a replay's reader applies it first)."""
-    return select_window(read_or_fail(paths, origin, window=window, **options), *window)
+    return select_window(measured(read_or_fail(paths, origin, window=window, **options), paths),
+                         *window)
+
+
+def measured(meas: Any, paths: list[Path]) -> Any:
+    """Refuse a set without a row (a header alone) before any work is asked of it."""
+    if len(meas) == 0:
+        raise fail(f"{' + '.join(map(str, paths))}: no measurement (a header without rows): "
+                   "nothing to estimate or track")
+    return meas
 
 
 def window_help(purpose: str, end: str) -> str:

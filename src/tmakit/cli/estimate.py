@@ -21,6 +21,7 @@ from .common import (
     PropagationSpeedOption,
     RefTimeOption,
     SensorPositionSigmaOption,
+    check_dim,
     check_output,
     check_outputs,
     check_ref_time,
@@ -28,6 +29,7 @@ from .common import (
     fail,
     failing,
     file_ref_time,
+    measured,
     model_options,
     motion_or_fail,
     note_unused_model_options,
@@ -152,6 +154,7 @@ def estimate(
     Own-ship legs, turn cuts and towed-array ambiguity: docs/analyst.md.
     """
     check_units(units)
+    check_fit_options(settle, criterion, alpha, accelerations)
     plot = check_output(plot, "--plot", force, "picture")
     model = model_options(drift, free_exponent, propagation_speed)
     more = check_solution_outputs(html, export, force, list(files), export_every, export_rb,
@@ -180,6 +183,21 @@ def estimate(
                    factors=factors, plot=(plot, " + ".join(map(str, files)), model), more=more)
 
 
+def check_fit_options(settle: float | None, criterion: str | None, alpha: float | None,
+                      accelerations: str | None) -> None:
+    """Refuse --settle, --criterion, --alpha and --accelerations out of their range, by name."""
+    from ..batch.manoeuvre import ACCELERATIONS, CRITERIA
+
+    if settle is not None and not settle >= 0:
+        raise fail(f"--settle {settle:g}: expected a time >= 0 (s)")
+    if criterion is not None and criterion not in CRITERIA:
+        raise fail(f"--criterion {criterion!r}: expected {' or '.join(CRITERIA)}")
+    if alpha is not None and not 0 < alpha < 1:
+        raise fail(f"--alpha {alpha:g}: expected a significance level in (0, 1)")
+    if accelerations is not None and accelerations not in ACCELERATIONS:
+        raise fail(f"--accelerations {accelerations!r}: expected {' or '.join(ACCELERATIONS)}")
+
+
 def manoeuvre_warnings(meas: Any, result: Any, options: dict[str, Any] | None, **words: str
                        ) -> list[Any]:
     """Warn when a cv2d fit hides a target manoeuvre (:mod:`tmakit.batch.leg_change`)."""
@@ -197,7 +215,7 @@ def read_leg_window(files: list[Path], origin: Any, options: dict[str, Any],
     start, stop = window
     if leg is None and not snap:  # a replay's window is applied before its reader's checks
         return read_window(files, origin, window, **options), None
-    meas = read_or_fail(files, origin, window=(None, None), **options)
+    meas = measured(read_or_fail(files, origin, window=(None, None), **options), files)
     start, stop, legs = leg_window(meas, leg, start, stop, snap, turn_rate)
     return select_window(meas, start, stop), legs
 
@@ -238,8 +256,7 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
     if sensor_position_sigma is not None:
         return sensor_error_fitter(meas, motion, ref_time, method, options, sensor_position_sigma)
     exact, criterion, alpha, accelerations = manoeuvre
-    if dim not in (None, 2, 3):
-        raise fail(f"--dim {dim}: expected 2 or 3")
+    check_dim(dim)
     name = motion if motion is not None else meas.metadata.get("motion")
     if name is not None and getattr(motion_or_fail(name, ref_time, meas), "manoeuvres",
                                                 None) is not None:

@@ -20,6 +20,7 @@ from .common import (
     OwnshipOption,
     RangeSigmaOption,
     RangesOption,
+    check_dim,
     check_output,
     check_ranges,
     fail,
@@ -319,8 +320,7 @@ def import_(
     if IMPORT_FORMATS[fmt] and len(files) != IMPORT_FORMATS[fmt]:
         what = ("the own track and the measurement log" if IMPORT_FORMATS[fmt] == 2 else "one file")
         raise fail(f"import {fmt} takes {what}; got {len(files)} file(s)")
-    if dim not in (None, 2, 3):
-        raise fail(f"--dim {dim}: expected 2 or 3")
+    check_dim(dim)
     check_output(output, "-o", force, "measurements")
     for f in files:
         if not f.exists():

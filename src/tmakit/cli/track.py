@@ -23,6 +23,7 @@ from .common import (
     FreeExponentOption,
     OriginOption,
     PropagationSpeedOption,
+    check_dim,
     check_outputs,
     check_particles,
     err,
@@ -182,13 +183,16 @@ def track(
     No initial guess: a batch estimate over the shortest good initial window (or --prior);
     gsf, or --range-prior / --speed-prior, start at the first bearing from those intervals.
     With --html, the solution page of the batch estimate (constant velocity) of the data.
+
+    Exit status 0: a track (trust ok or warning); 4: the track has diverged (trust none, no
+    answer; the table, -o and --plot show where it went); 2: bad input (docs/reliability.md).
     """
     output, plot = check_track_options(output, plot, force, filter_name, particles, seed,
                                        ellipses, rows)
     check_sums(sums, filter_name, as_json, follow)
     check_units(units)
     page = check_solution_outputs(html, None, force, [*files], taken=[plot]).html
-    reading = (parse_origin(origin), dim, logs)
+    reading = (parse_origin(origin), check_dim(dim), logs)
     options = model_options(drift, free_exponent, propagation_speed)
     mean, sd, known = parse_prior(prior, prior_std, nuisance, init_window)
     keywords = dict(  # of tmakit.tracking.track
@@ -205,9 +209,18 @@ def track(
     if follow:
         return watch(list(files), logs["format"], update, interval, max_updates, update.say)
     meas, tr, truth, _ = tracked(list(files))
-    report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units,
-                 sums, options)
+    trust = report_track(tr, meas, truth, rows, as_json, answer_or_fail(tr, meas, sensor), units,
+                         sums, options)
     update.write(meas, tr, truth, force)
+    no_answer_exit(trust)
+
+
+def no_answer_exit(trust: Any) -> None:
+    """Exit with status 4 after a diverged track's outputs (they show where it went)."""
+    from .guard import EXIT_NO_ANSWER
+
+    if not trust.answer:
+        raise typer.Exit(EXIT_NO_ANSWER)
 
 
 def track_files(paths: list[Path], reading: tuple[Any, int | None, dict[str, Any]],
@@ -333,10 +346,14 @@ class Watch:
             import json
 
             typer.echo(json.dumps({"update": self.count, "rows": len(meas),
-                                   "answer": answer.as_dict(), **trust.as_dict()}))
-        else:
+                                   "answer": answer.as_dict() if trust.answer else None,
+                                   **trust.as_dict()}))
+        elif trust.answer:
             out.print(update_line(self.count, len(meas), answer, trust.level, self.units),
                       soft_wrap=True)
+        else:
+            out.print(f"update {self.count}: {len(meas)} rows, {trust.reasons[0].message}; "
+                      f"trust {trust.level}", soft_wrap=True)
         self.write(meas, tr, truth, self.force or self.count > 1)
         if ended:
             raise FollowEnded("the data have passed --to: the window is tracked")
@@ -377,8 +394,11 @@ def run_track(meas: Any, filter_name: str, keywords: dict[str, Any], smooth: boo
 
 
 def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answer: Any,
-                 units: str, sums: bool = False, options: dict[str, Any] | None = None) -> None:
-    """Print the track (table or one line of JSON), its final answers and the warnings."""
+                 units: str, sums: bool = False, options: dict[str, Any] | None = None) -> Any:
+    """Print the track (table or one line of JSON), its final answers and the warnings.
+
+    Returns its trust (``none``: no answer printed, ``answer`` null in the JSON).
+    """
     import json
 
     from .. import tracking
@@ -387,13 +407,19 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
     warnings = measurement_warnings(meas) + start_manoeuvre_warnings(tr, meas, options)
     trust = track_trust(tr, warnings)
     if as_json:  # one line: the track is long, and rich's JSON printer slow on it
-        typer.echo(json.dumps({**tracking.track_dict(tr, sums=sums), "answer": answer.as_dict(),
+        typer.echo(json.dumps({**tracking.track_dict(tr, sums=sums),
+                               "answer": answer.as_dict() if trust.answer else None,
                                **trust.as_dict()}))
     else:
         print_track(tr, truth, rows, meas, units)
-        print_answers(answer, units, meas)
-        out.print(f"trust: {trust.level}")
+        if trust.answer:
+            print_answers(answer, units, meas)
+        else:
+            out.print(trust.reasons[0].message, soft_wrap=True)
+        codes = ", ".join(r.code for r in trust.reasons)
+        out.print(f"trust: {trust.level}" + (f" ({codes})" if codes else ""), soft_wrap=True)
     print_warnings([r for r in trust.reasons if r.code == "held-nuisance"] + warnings)
+    return trust
 
 
 def start_manoeuvre_warnings(tr: Any, meas: Any, options: dict[str, Any] | None) -> list[Any]:
@@ -411,9 +437,9 @@ def start_manoeuvre_warnings(tr: Any, meas: Any, options: dict[str, Any] | None)
 
 
 def track_trust(tr: Any, warnings: list[Any]) -> Any:
-    """Return how far to trust a track: ``warning`` on inconsistent NIS or a held nuisance."""
+    """Return a track's trust: ``none`` diverged, ``warning`` inconsistent NIS or held nuisance."""
     from .. import tracking
-    from ..results import TRUST_OK, TRUST_WARNING, SanityWarning, Trust
+    from ..results import TRUST_NONE, TRUST_OK, TRUST_WARNING, SanityWarning, Trust
 
     reasons = list(warnings)
     start = tracking.start_record(tr)
@@ -422,7 +448,36 @@ def track_trust(tr: Any, warnings: list[Any]) -> Any:
     verdict = nis_verdict(tr)
     if verdict:
         reasons.insert(0, SanityWarning("inconsistent-innovations", verdict))
+    if diverged := divergence_verdict(tr):
+        return Trust(TRUST_NONE, [SanityWarning("diverged", diverged), *reasons])
     return Trust(TRUST_WARNING if reasons else TRUST_OK, reasons)
+
+
+#: A track has diverged when the innovations of its last quarter of updates (at least
+#: DIVERGED_UPDATES of them) exceed what its covariances allow (chi-square upper tail below
+#: DIVERGED_P) by DIVERGED_NIS times or more on average (innovations twice their predicted std).
+DIVERGED_UPDATES, DIVERGED_P, DIVERGED_NIS = 10, 1e-3, 4.0
+
+
+def divergence_verdict(tr: Any) -> str:
+    """Say when a track has diverged: its final updates' innovations far beyond its covariances."""
+    import numpy as np
+
+    from ..core import chi2
+
+    used = np.flatnonzero(tr.dof > 0)
+    last = used[-max(DIVERGED_UPDATES, used.size // 4):]
+    if last.size == 0:
+        return ""
+    nis, dof = float(np.sum(tr.nis[last])), int(np.sum(tr.dof[last]))
+    p = float(chi2.sf(nis, dof))
+    if not (p < DIVERGED_P and nis >= DIVERGED_NIS * dof):
+        return ""
+    return (f"no answer: the track has diverged: over its last {last.size} updates (from t = "
+            f"{float(tr.times[last[0]]):g} s) the innovations are {nis / dof:.1f} times the "
+            f"variance its covariances allow (NIS {nis:.1f} on {dof} dof, p = {p:.2g}), so its "
+            "final state and standard deviations are not to be trusted. A manoeuvring target "
+            "(--filter imm, or --q)? Sigmas too small?")
 
 
 def write_track_outputs(file: Path, meas: Any, tr: Any, truth: Any, output: Path | None,
@@ -722,7 +777,8 @@ MIN_PARTICLES = 7
 #: The flags of `tma track` for the library parameters its errors name.
 TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--prior-std",
                "max_relative_std": "--start-std", "tracker": "--filter",
-               "q_density": "--q-density", "bearing_prior": "--range-prior"}
+               "q_density": "--q-density", "bearing_prior": "--range-prior",
+               "init_window": "--init-window"}
 
 
 def tracking_failure(e: Any) -> typer.Exit:
@@ -732,7 +788,10 @@ def tracking_failure(e: Any) -> typer.Exit:
     names = dict(TRACK_FLAGS)
     if isinstance(e, MissingNuisanceError):
         names["nuisance"] = ("nuisance={...}; --nuisance " + ",".join(f"{n}=..." for n in e.names))
-    return fail(e.render(names))
+    message = e.render(names)
+    if e.parameter in names and message.startswith(e.parameter):  # "init_window: expected ..."
+        message = names[e.parameter] + message.removeprefix(e.parameter)
+    return fail(message)
 
 
 def check_track_options(output: Path | None, plot: Path | None, force: bool,

@@ -33,6 +33,7 @@ from .logs import (
     local_frame,
     one_fix_a_time,
     relative_seconds,
+    reversed_window,
     seconds_of_time_text,
     time_origin_ns,
     velocity_from_positions,
@@ -479,11 +480,14 @@ def _in_window(where: Path, rows: list[SensorLine], window: Sequence[str | None]
             for text, option in zip(window, ("--from", "--to"), strict=True))
     except ValueError as e:
         raise MeasurementFileError(where, [str(e)]) from None
+    if lo is not None and hi is not None and lo > hi:  # the options' fault, not the file's
+        raise ValueError(reversed_window(str(window[0]), str(window[1]), iso_utc(lo), iso_utc(hi)))
     kept = [s for s in rows if (lo is None or s.time_ns >= lo) and (hi is None or s.time_ns <= hi)]
     if not kept:
-        raise MeasurementFileError(where, [
-            f"no cut between {window[0] or 'the start'} and {window[1] or 'the end'} (the cuts "
-            f"span {iso_utc(rows[0].time_ns)} to {iso_utc(rows[-1].time_ns)})"])
+        raise ValueError(
+            f"--from/--to: no cut between {window[0] or 'the start'} and "
+            f"{window[1] or 'the end'} in {where}: the window is empty (the cuts span "
+            f"{iso_utc(rows[0].time_ns)} to {iso_utc(rows[-1].time_ns)})")
     return kept
 
 
@@ -506,6 +510,8 @@ def _default_sigmas(path: Path, bearing: float | None, range_: float | None,
                "frequency": DEFAULT_FREQUENCY_SIGMA_HZ}
     sig = {k: default[k] if v is None else v for k, v in given.items()}
     bad = [f"{k} sigma {v!r}: expected a number > 0" for k, v in sig.items() if not v > 0]
+    bad += [f"{k} sigma {v!r}: expected {rules.sigma_ceiling_text(k)}" for k, v in sig.items()
+            if v > (rules.sigma_ceiling(k) or np.inf)]
     if bad:
         raise MeasurementFileError(path, bad)
     return sig, {k for k, v in given.items() if v is not None}
@@ -572,6 +578,9 @@ def _sigma_by_sensor(where: Path, cuts: _Cuts, by_sensor: dict[str, float]) -> d
                        f"from it (sensors: {listed(names)})")
         elif not (isinstance(value, int | float) and value > 0):
             bad.append(f"bearing sigma of sensor {key!r}: {value!r}, expected a number > 0 (deg)")
+        elif value > (rules.sigma_ceiling("bearing") or np.inf):
+            bad.append(f"bearing sigma of sensor {key!r}: {value!r}, expected "
+                       f"{rules.sigma_ceiling_text('bearing')}")
         else:
             out[name] = float(np.deg2rad(value))
     if bad:

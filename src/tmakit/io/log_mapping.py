@@ -16,6 +16,8 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from ..core.input_files import read_toml
+from ..measurements import KINDS
+from ..rules import sigma_ceiling, sigma_ceiling_text
 from .logs import EPOCH_UNITS, KNOT, LATEST_NS, YARD, csv_separator
 
 __all__ = ["UNITS", "LogMapping", "MappingError", "MappingGuess", "guess_mapping", "load_mapping",
@@ -132,6 +134,11 @@ class MeasurementMap(_Strict):
                              "bearings only")
         if (self.sigma is None) == (self.sigma_column is None):
             raise ValueError("give sigma (in the unit; dB for power) or sigma_column")
+        limit = sigma_ceiling(self.kind)
+        if self.sigma is not None and limit is not None and (
+                self.sigma * UNITS[self.kind][self.unit][0] > limit * KINDS[self.kind].file_scale):
+            raise ValueError(f"sigma {self.sigma:g} {self.unit}: expected "
+                             f"{sigma_ceiling_text(self.kind)}")
         return self
 
 

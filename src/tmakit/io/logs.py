@@ -28,7 +28,8 @@ __all__ = ["EPOCH_UNITS", "KNOT", "LATEST_NS", "PLAUSIBLE_YEARS", "SURFACE_TOLER
            "clock_time_problem", "clock_times", "course_speed_velocity", "csv_separator",
            "fill_altitudes", "fix_problems", "interpolate_heading", "interpolate_states",
            "iso_utc", "listed", "local_frame", "one_fix_a_time", "parse_clock_times",
-           "relative_seconds", "seconds_of_time_text", "surface_dim", "time_origin_ns",
+           "relative_seconds", "reversed_window", "seconds_of_time_text", "surface_dim",
+           "time_origin_ns",
            "velocity_from_positions"]
 
 
@@ -445,6 +446,12 @@ def _clock_seconds(text: str, match: re.Match[str], option: str) -> float:
         raise ValueError(f"{option} {text!r}: expected a clock time HH:MM or HH:MM:SS (UTC), "
                          "hours 0-23, minutes and seconds 0-59")
     return hours * 3600.0 + minutes * 60.0 + seconds
+
+
+def reversed_window(start: str, stop: str, start_at: str, stop_at: str) -> str:
+    """Say that ``--from`` comes after ``--to`` (each with the time it reads as)."""
+    return (f"--from {start} is after --to {stop} ({start_at} > {stop_at}): the window ends "
+            "before it starts, so it is empty; give its start with --from and its end with --to")
 
 
 def seconds_of_time_text(text: str, option: str, origin_ns: int | None,

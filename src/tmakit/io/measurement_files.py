@@ -11,7 +11,7 @@ from ..data import MeasurementSet
 from . import csv_file, debrief, parquet_file, wide_log  # noqa: F401  (register formats)
 from .checker import COLUMN_ORDER, COLUMN_PURPOSE, FORMAT_LINE, PARQUET_METADATA_PREFIX
 from .errors import MAX_LISTED_PROBLEMS, MeasurementFileError, refuse_unreadable
-from .formats import find_format, registered_formats, suffix_text
+from .formats import Format, find_format, registered_formats, suffix_text
 
 __all__ = [
     "COLUMN_ORDER",
@@ -90,7 +90,8 @@ def read_measurements(path: str | os.PathLike[str] | Sequence[str | os.PathLike[
     FileNotFoundError
         If the file does not exist.
     ValueError
-        If ``format`` names no registered format.
+        If ``format`` names no registered format, or ``window`` ends before it starts or
+        holds no cut.
     """
     bearing_sigma_deg = renamed_keyword("read_measurements", "bearing_sigma", bearing_sigma,
                                         "bearing_sigma_deg", bearing_sigma_deg, None)
@@ -123,14 +124,11 @@ def _read(paths: list[Path], origin: tuple[float, float, float] | None, format: 
     for p in paths:
         if not p.exists():
             raise FileNotFoundError(f"{p}: no such file")
-    if len(paths) == 1:  # a FIFO, a device, NUL bytes in a text format: at once
-        refuse_unreadable(paths[0], binary=fmt.name == "parquet"
+    if len(paths) == 1:  # a FIFO, a device, NUL bytes in a text format: at once (an NMEA
+        # log's reader sniffs its own bytes: binary messages may lie between its sentences)
+        refuse_unreadable(paths[0], binary=fmt.name in ("parquet", "nmea")
                           or paths[0].suffix.lower() in (".parquet", ".pq"))
-    foreign = sorted(set(options) - set(fmt.options))
-    if foreign:
-        shown_as = {"bearing_sigma": "bearing_sigma_deg"}
-        raise ForeignOptionError(fmt.label, [shown_as.get(n, n) for n in foreign],
-                                 [shown_as.get(n, n) for n in fmt.options])
+    _refuse_foreign_options(fmt, options)
     return fmt.read(paths[0] if len(paths) == 1 else paths, origin=origin, **options)
 
 
@@ -141,6 +139,15 @@ class ForeignOptionError(TypeError):
         self.label, self.foreign, self.taken = label, foreign, taken
         super().__init__(f"{label} files take no option {', '.join(foreign)} "
                          f"(they take {', '.join(taken) or 'none'})")
+
+
+def _refuse_foreign_options(fmt: Format, options: dict[str, object]) -> None:
+    """Refuse options the format's reader does not take, naming them and the ones it does."""
+    foreign = sorted(set(options) - set(fmt.options))
+    if foreign:
+        shown = {"bearing_sigma": "bearing_sigma_deg"}
+        raise ForeignOptionError(fmt.label, [shown.get(n, n) for n in foreign],
+                                 [shown.get(n, n) for n in fmt.options])
 
 
 def write_measurements(ms: MeasurementSet, path: str | os.PathLike[str],

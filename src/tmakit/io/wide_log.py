@@ -525,6 +525,7 @@ class _Sentence:
     clock: dt.time | None
     date: dt.date | None
     fields: dict[str, float]
+    talker: str = ""
 
 
 def _nmea_text(raw: str) -> tuple[str | None, bool]:
@@ -630,11 +631,15 @@ def _nmea_fixes(path: Path, lines: list[str]) -> tuple[dict[int, dict], list[str
         if isinstance(record, str):
             no_fix[record] = no_fix.get(record, 0) + 1
         elif record is not None:
+            record.talker = msg.talker
             sentences.append(record)
+    dated = _dated(sentences)
+    one, notes = _one_receiver(dated)
+    problems += one
     by_time: dict[int, dict] = {}
     last: int | None = None
     undated = 0
-    for s, stamp in _dated(sentences):
+    for s, stamp in dated:
         undated += s.kind == "GGA" and stamp is None
         if s.kind in ("RMC", "GGA") and stamp is not None:
             last = _ns(stamp)
@@ -650,10 +655,69 @@ def _nmea_fixes(path: Path, lines: list[str]) -> tuple[dict[int, dict], list[str
                          "date")
         problems.append("no fix with a date and time" + (
             f": {'; '.join(found)}" if found else " (no RMC or GGA sentence)"))
-    notes = [f"note: {len(cut)} NMEA sentences without a checksum and cut short (line "
-             f"{', line '.join(map(str, cut[:5]))}{' and more' if len(cut) > 5 else ''}) "
-             "are left out"] if cut else []
+    notes += [f"note: {len(cut)} NMEA sentences without a checksum and cut short (line "
+              f"{', line '.join(map(str, cut[:5]))}{' and more' if len(cut) > 5 else ''}) "
+              "are left out"] if cut else []
     return by_time, problems, notes
+
+
+#: Two positions at one time farther apart than this (m) are not one receiver's fix.
+SAME_FIX_M = 1.0
+
+
+def _one_receiver(dated: list[tuple[_Sentence, dt.datetime | None]]
+                  ) -> tuple[list[str], list[str]]:
+    """Refuse the fixes of two receivers in one log; note talkers that agree (one receiver).
+
+    Two RMC/GGA positions at one time more than :data:`SAME_FIX_M` apart, or two talkers
+    whose fixes interleave without a common time, are two receivers: the track would jump
+    between them.
+    """
+    at: dict[int, list[_Sentence]] = {}
+    for s, stamp in dated:
+        if s.kind in ("RMC", "GGA") and stamp is not None:
+            at.setdefault(_ns(stamp), []).append(s)
+    problems: list[str] = []
+    for t, fixes in at.items():
+        a, b = max(((a, b) for a in fixes for b in fixes), key=lambda ab: _apart(*ab))
+        if _apart(a, b) > SAME_FIX_M:
+            problems.append(f"line {a.line} (${a.talker}{a.kind}) and line {b.line} "
+                            f"(${b.talker}{b.kind}): two positions {_apart(a, b):.0f} m apart "
+                            f"at {iso_utc(t)}")
+    spans: dict[str, list[int]] = {}
+    for t in sorted(at):
+        for s in at[t]:
+            spans.setdefault(s.talker, []).append(t)
+    talkers = sorted(spans)
+    if problems:
+        more = f" (and {len(problems) - 3} more times)" if len(problems) > 3 else ""
+        drop = (f" (grep -v '\\${talkers[-1]}' leaves out talker {talkers[-1]}'s lines)"
+                if len(talkers) > 1 else "")
+        return ["; ".join(problems[:3]) + more + ": a log of two receivers (talker"
+                f"{'s' if len(talkers) > 1 else ''} {', '.join(talkers)})? A sensor is at one "
+                f"place at a time: give one receiver's sentences{drop}"], []
+    if len(talkers) < 2:
+        return [], []
+    shared = set.intersection(*(set(v) for v in spans.values()))
+    overlap = max(v[0] for v in spans.values()) <= min(v[-1] for v in spans.values())
+    if overlap and not shared:
+        first = ", ".join(f"{k} from line {next(s.line for s in at[spans[k][0]] if s.talker == k)}"
+                          for k in talkers)
+        return [f"the fixes of talkers {' and '.join(talkers)} interleave in time without one "
+                f"common time ({first}): a log of two receivers? A sensor is at one place at a "
+                "time: give one receiver's sentences"], []
+    return [], [f"note: talkers {' and '.join(talkers)} give positions within {SAME_FIX_M:g} m "
+                f"of each other at their {len(shared)} common times: read as one receiver"
+                if shared else f"note: talkers {' and '.join(talkers)} give fixes one after "
+                "the other (no common time): read as one track"]
+
+
+def _apart(a: _Sentence, b: _Sentence) -> float:
+    """Give the horizontal distance of two fixes (m; local flat earth, enough near 1 m)."""
+    north = np.radians(a.fields["lat"] - b.fields["lat"]) * 6_371_000.0
+    east = (np.radians((a.fields["lon"] - b.fields["lon"] + 180.0) % 360.0 - 180.0) * 6_371_000.0
+            * np.cos(np.radians(a.fields["lat"])))
+    return float(np.hypot(north, east))
 
 
 def read_nmea_fixes(path: str | os.PathLike[str]) -> Fixes:
