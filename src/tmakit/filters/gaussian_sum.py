@@ -68,13 +68,17 @@ def check_component(component: str) -> None:
                          f"{component!r}")
 
 
-def component_filter(filt: TrackingFilter, component: str, mean: ArrayLike,
-                     covariance: ArrayLike, **settings: int) -> ExtendedKalmanFilter:
-    """Give the filter whose arithmetic updates each Gaussian of ``filt``."""
+def component_filter(filt: TrackingFilter, component: str, iterations: int, mean: ArrayLike,
+                     covariance: ArrayLike) -> ExtendedKalmanFilter:
+    """Give the filter whose arithmetic updates each Gaussian of ``filt`` (EKF: ``iterations``)."""
+    if component != "ekf" and iterations != 1:
+        raise ValueError(f"iterations apply to EKF components; got {iterations} with "
+                         f"{component!r}")
     return COMPONENTS[component](np.asarray(mean, dtype=float),
                                  np.asarray(covariance, dtype=float), filt.time,
                                  dynamics=filt.dynamics, options=filt.options,
-                                 nuisance=filt.nuisance, **settings)
+                                 nuisance=filt.nuisance,
+                                 **({"iterations": iterations} if component == "ekf" else {}))
 
 
 def mixture_moments(weights: Array, means: Array, covs: Array) -> tuple[Array, Array]:
@@ -179,12 +183,7 @@ class GaussianSumFilter(TrackingFilter):
                              "NearlyConstantVelocity dynamics")
         if iterations is None:
             iterations = ITERATIONS if component == "ekf" else 1
-        if component != "ekf" and iterations != 1:
-            raise ValueError(f"iterations apply to EKF components; got {iterations} with "
-                             f"{component!r}")
-        self._unit = component_filter(self, component, mean, covariance,
-                                      **({"iterations": iterations} if component == "ekf"
-                                         else {}))
+        self._unit = component_filter(self, component, iterations, mean, covariance)
         self.iterations = self._unit.iterations
 
     def _init_state(self, mean: Array, covariance: Array) -> None:
@@ -366,7 +365,6 @@ class GaussianSumFilter(TrackingFilter):
     def _track(self, rec: Recorder) -> Track:
         track = super()._track(rec)
         track.extra.components = list(self.component_counts)
-        track.extra.history = self.history
         return track
 
 

@@ -29,7 +29,7 @@ from .gaussian_sum import (
     mixture_moments,
     update_components,
 )
-from .particle import ParticleFilter, ParticleStep
+from .particle import ParticleFilter, ParticleStep, psd_root
 from .track import Recorder, Track, UpdateInfo
 
 #: Turn rates of the default coordinated-turn models (deg/s), each taken to the left and to the
@@ -119,7 +119,40 @@ class MarkovChain:
         return self._cache[1]
 
 
-class InteractingMultipleModel(TrackingFilter):
+class _MultipleModels(TrackingFilter):
+    """What the two multiple-model filters share: the Markov chain and the models' records."""
+
+    start_relative_std = START_RELATIVE_STD
+    start_by_likelihood = True  # judged by the batch start's covariance widened to its likelihood
+    chain: MarkovChain
+    models: list[NearlyConstantVelocity]
+    _mu0: Array
+    probability_history: list[list[float]]
+
+    @property
+    def transition(self) -> Array:
+        """The Markov matrix per step given, or the chain's for a 1-s step ``(M, M)``."""
+        return self.chain.matrix(1.0)
+
+    def _track(self, rec: Recorder) -> Track:
+        """Record the model probabilities, the models and the Markov matrix in ``extra``."""
+        track = super()._track(rec)
+        track.extra.model_probabilities = [list(p) for p in self.probability_history]
+        track.extra.models = [{"q": [float(v) for v in m.axes()[0]],
+                               "q_density": [float(v) for v in m.axes()[1]],
+                               "turn_rate": None if isinstance(m, UnknownRateTurn)
+                               else float(getattr(m, "turn_rate", 0.0)),
+                               **({"rate_noise": m.rate_noise}
+                                  if isinstance(m, UnknownRateTurn) else {}),
+                               "prior": float(p),
+                               "sojourn": None if self.chain.fixed is not None
+                               else self.chain.sojourn}
+                              for m, p in zip(self.models, self._mu0, strict=True)]
+        track.extra.transition = self.transition.tolist()
+        return track
+
+
+class InteractingMultipleModel(_MultipleModels):
     """Interacting multiple model filter of EKF, UKF or cubature components.
 
     Parameters
@@ -170,8 +203,6 @@ class InteractingMultipleModel(TrackingFilter):
     """
 
     name = "imm"
-    start_relative_std = START_RELATIVE_STD
-    start_by_likelihood = True  # judged by the batch start's covariance widened to its likelihood
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  component: str = "ekf", iterations: int = 1,
@@ -196,23 +227,13 @@ class InteractingMultipleModel(TrackingFilter):
         super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
                          nuisance=nuisance)
         self.models = model_bank(self.dynamics, extra, rates, turn_q, rate_noise)
-        if component != "ekf" and iterations != 1:
-            raise ValueError(f"iterations apply to EKF components; got {iterations} with "
-                             f"{component!r}")
-        self._unit: ExtendedKalmanFilter = component_filter(
-            self, component, mean, covariance,
-            **({"iterations": iterations} if component == "ekf" else {}))
+        self._unit = component_filter(self, component, iterations, mean, covariance)
         self.iterations = self._unit.iterations
         self.probability_history: list[list[float]] = []
         #: Each update's models and rows (with ``history=True``), for :func:`imm_smooth`.
         self.history = ModelHistory(self.models, self._unit, [],
                                     self.rate_std) if history else None
         self._switch = self.chain.matrix(0.0)
-
-    @property
-    def transition(self) -> Array:
-        """The Markov matrix per step given, or the chain's for a 1-s step ``(M, M)``."""
-        return self.chain.matrix(1.0)
 
     def _init_state(self, mean: Array, covariance: Array) -> None:
         count = self._mu0.shape[0]
@@ -298,13 +319,8 @@ class InteractingMultipleModel(TrackingFilter):
             self.history.steps.append(ModelStep(self.time, self._mu.copy(), self._m.copy(),
                                                 self._p.copy(), self._switch, group))
 
-    def _track(self, rec: Recorder) -> Track:
-        track = model_records(self, super()._track(rec))
-        track.extra.history = self.history
-        return track
 
-
-class MultipleModelParticleFilter(ParticleFilter):
+class MultipleModelParticleFilter(_MultipleModels, ParticleFilter):
     """Multiple-model particle filter: each particle carries a model of the IMM's Markov chain.
 
     At each predict every particle draws its next model from its row of the Markov matrix and
@@ -333,8 +349,6 @@ class MultipleModelParticleFilter(ParticleFilter):
     """
 
     name = "mmpf"
-    start_relative_std = START_RELATIVE_STD
-    start_by_likelihood = True  # judged by the batch start's covariance widened to its likelihood
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  model_q: Sequence[float] = (), transition: ArrayLike | None = None,
@@ -358,11 +372,6 @@ class MultipleModelParticleFilter(ParticleFilter):
                          q=q, dynamics=dynamics, options=options, nuisance=nuisance)
         self.models = model_bank(self.dynamics, extra, rates, turn_q)
         self.probability_history: list[list[float]] = []
-
-    @property
-    def transition(self) -> Array:
-        """The Markov matrix per step given, or the chain's for a 1-s step ``(M, M)``."""
-        return self.chain.matrix(1.0)
 
     def _init_state(self, mean: Array, covariance: Array) -> None:
         super()._init_state(mean, covariance)
@@ -392,8 +401,7 @@ class MultipleModelParticleFilter(ParticleFilter):
                                  len(self.models) - 1)
         for j, model in enumerate(self.models):
             k = np.flatnonzero(self._label == j)
-            evals, evecs = np.linalg.eigh(symmetrise(model.noise(dt)))
-            root = evecs * np.sqrt(np.clip(evals, 0.0, None))
+            root = psd_root(model.noise(dt))
             self._x[:, k] = (model.transition(dt) @ self._x[:, k]
                              + root @ self.rng.standard_normal((root.shape[0], k.shape[0])))
         self._moments = None
@@ -414,9 +422,6 @@ class MultipleModelParticleFilter(ParticleFilter):
             self.history[-1] = LabelledStep(**vars(self.history[-1]), labels=labels,
                                             transition=self._switch)
         return info
-
-    def _track(self, rec: Recorder) -> Track:
-        return model_records(self, super()._track(rec))
 
 
 @dataclass(frozen=True)
@@ -559,23 +564,6 @@ def update_models(unit: ExtendedKalmanFilter, group: MeasurementGroup,
             covs[j, n, :n] = covs[j, :n, n] = cross
     means[:, :n], covs[:, :n, :n] = kin_m, kin_p
     return log_l, nis, dof
-
-
-def model_records(f: InteractingMultipleModel | MultipleModelParticleFilter, track: Track
-                  ) -> Track:
-    """Put the filter's model probabilities, models and Markov matrix in ``track.extra``."""
-    track.extra.model_probabilities = [list(p) for p in f.probability_history]
-    track.extra.models = [{"q": [float(v) for v in m.axes()[0]],
-                           "q_density": [float(v) for v in m.axes()[1]],
-                           "turn_rate": None if isinstance(m, UnknownRateTurn)
-                           else float(getattr(m, "turn_rate", 0.0)),
-                           **({"rate_noise": m.rate_noise} if isinstance(m, UnknownRateTurn)
-                              else {}),
-                           "prior": float(p),
-                           "sojourn": None if f.chain.fixed is not None
-                           else f.chain.sojourn} for m, p in zip(f.models, f._mu0, strict=True)]
-    track.extra.transition = f.transition.tolist()
-    return track
 
 
 def models_of(track: Track) -> list[NearlyConstantVelocity]:

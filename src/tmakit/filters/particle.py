@@ -24,7 +24,7 @@ from ..observation.groups import MeasurementGroup
 from .base import FilterSettings, KindOptions, ProcessNoise, TrackingFilter
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import LOG_2PI
-from .track import Recorder, Track, UpdateInfo
+from .track import UpdateInfo
 
 #: Log-weights this far below the largest are zero weights (:meth:`ParticleFilter._normalise`).
 LOG_NEGLIGIBLE = -575.0
@@ -263,9 +263,7 @@ class ParticleFilter(TrackingFilter):
             x = self.dynamics.transition(dt) @ x
             q = self.dynamics.noise(dt)
             if np.any(q != 0):
-                evals, evecs = np.linalg.eigh(symmetrise(q))
-                root = evecs * np.sqrt(np.clip(evals, 0.0, None))
-                x += root @ self.rng.standard_normal((x.shape[0], self.n_particles))
+                x += psd_root(q) @ self.rng.standard_normal((x.shape[0], self.n_particles))
             self._x = np.ascontiguousarray(x)
         self._moments = None
 
@@ -395,11 +393,6 @@ class ParticleFilter(TrackingFilter):
         return self._normalise(np.array(loglik, dtype=float), 0.0, float(nu_bar @ sol),
                                int(nu.shape[1]))
 
-    def _track(self, rec: Recorder) -> Track:
-        track = super()._track(rec)
-        track.extra.history = self.history
-        return track
-
     # -- resampling and regularisation -------------------------------------------------------
     def _carry(self, idx: NDArray[np.int64]) -> None:
         """Carry what a subclass keeps per particle through a resampling to ``idx``."""
@@ -462,5 +455,10 @@ def _kernel_factor(cov: Array) -> Array:
     try:
         return cast(Array, np.linalg.cholesky(cov))
     except np.linalg.LinAlgError:
-        evals, evecs = np.linalg.eigh(nearest_psd(cov))
-        return cast(Array, evecs * np.sqrt(np.clip(evals, 0.0, None)))
+        return psd_root(nearest_psd(cov))
+
+
+def psd_root(q: Array) -> Array:
+    """Give a square root ``L`` (``L L^T = q``) of a symmetric PSD matrix, by its eigenvectors."""
+    evals, evecs = np.linalg.eigh(symmetrise(q))
+    return cast(Array, evecs * np.sqrt(np.clip(evals, 0.0, None)))
