@@ -60,6 +60,14 @@ class SumStep:
     covariances: Array  # (M, n, n)
     origins: IntArray  # (M,): the component of the previous step each descends from (-1: none)
 
+    @classmethod
+    def first(cls, time: float, weights: Array, means: Array, covariances: Array,
+              origins: IntArray, count: int) -> SumStep:
+        """Copy the first ``count`` components, their weights normalised."""
+        w = weights[:count]
+        return cls(float(time), w / np.sum(w), means[:count].copy(),
+                   covariances[:count].copy(), origins[:count].copy())
+
 
 def check_component(component: str) -> None:
     """Refuse a component filter not in :data:`COMPONENTS`."""
@@ -211,10 +219,8 @@ class GaussianSumFilter(TrackingFilter):
     def _keep(self) -> None:
         """Record the sum (with ``history``) after an update or at the start."""
         if self.history is not None:
-            c = self._count
-            self.history.append(SumStep(self.time, self._w[:c] / np.sum(self._w[:c]),
-                                        self._m[:c].copy(), self._p[:c].copy(),
-                                        self._origin[:c].copy()))
+            self.history.append(SumStep.first(self.time, self._w, self._m, self._p,
+                                              self._origin, self._count))
 
     @classmethod
     def from_mixture(cls, weights: ArrayLike, means: ArrayLike, covariances: ArrayLike,
@@ -329,9 +335,6 @@ class GaussianSumFilter(TrackingFilter):
             return None
         times, zs = prepared.time[start:], prepared.values[start:]
         k = int(times.shape[0])
-        if times.shape[0] and times[0] < self.time - 1e-9:
-            raise ValueError(f"filters run forward: cannot predict from t={self.time} s back "
-                             f"to t={times[0]} s")
         unit = self._unit
         sp = (np.zeros(0) if not isinstance(unit, UnscentedKalmanFilter) else np.array(
             [unit._gamma, unit._wm[0], unit._wc[0], unit._wm[1]]))
@@ -339,20 +342,17 @@ class GaussianSumFilter(TrackingFilter):
         means, covs = np.zeros((k, 4)), np.zeros((k, 4, 4))
         nis, lls, counts = np.zeros(k), np.zeros(k), np.zeros(k)
         cap = self._w.shape[0] if self.history is not None else 0
-        kept = (np.zeros((k if cap else 0, cap)), np.zeros((k if cap else 0, cap, 4)),
-                np.zeros((k if cap else 0, cap, 4, 4)),
-                np.zeros((k if cap else 0, cap), dtype=np.int64))
+        rows = k if cap else 0
+        kept = (np.zeros((rows, cap)), np.zeros((rows, cap, 4)), np.zeros((rows, cap, 4, 4)),
+                np.zeros((rows, cap), dtype=np.int64))
         count, t, skipped_now = _sums().gsf_bearing_2d(
             self._w, self._m, self._p, self._origin, self._count, self.time, times, zs,
             prepared.sigmas[start:] ** 2, np.ascontiguousarray(prepared.sensor_state[start:, :2]),
             qa, qd, sp, np.array([self.split_threshold, self.prune, self.merge, self.iterations]),
             means, covs, nis, lls, counts, kept)
         if self.history is not None:
-            for j in range(k):
-                c = int(counts[j])
-                w = kept[0][j, :c]
-                self.history.append(SumStep(float(times[j]), w / w.sum(), kept[1][j, :c].copy(),
-                                            kept[2][j, :c].copy(), kept[3][j, :c].copy()))
+            self.history += [SumStep.first(times[j], kept[0][j], kept[1][j], kept[2][j],
+                                           kept[3][j], int(counts[j])) for j in range(k)]
         self._count, self.time = int(count), float(t)
         self.skipped_updates += int(skipped_now)
         self._moments = None
