@@ -34,6 +34,17 @@ ProcessNoise = float | tuple[float, ...]
 KindOptions = Mapping[str, Mapping[str, object]]
 
 
+def whole_number(value: float, name: str, low: int, what: str = "") -> int:
+    """Give ``value`` as an int: a whole number (not a bool) >= ``low``, else ValueError."""
+    try:
+        ok = not isinstance(value, bool) and int(value) == value and value >= low
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ValueError(f"{name} must be a whole number{what} >= {low}; got {value!r}")
+    return int(value)
+
+
 class FilterSettings(TypedDict, total=False):
     """The keywords of tmakit's filter constructors, for the ``from_*`` starts (PEP 692).
 

@@ -12,7 +12,7 @@ from ..core.linalg import solve_spd
 from ..data import MeasurementSet
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
-from .base import KindOptions, ProcessNoise, TrackingFilter
+from .base import KindOptions, ProcessNoise, TrackingFilter, whole_number
 from .general import (
     DynamicsCache,
     PreparedMeasurements,
@@ -94,10 +94,7 @@ class ExtendedKalmanFilter(TrackingFilter):
                  dynamics: NearlyConstantVelocity | None = None,
                  options: KindOptions | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
-        if isinstance(iterations, bool) or not isinstance(iterations, (int, np.integer)) \
-                or iterations < 1:
-            raise ValueError(f"iterations must be a whole number >= 1; got {iterations!r}")
-        self.iterations = int(iterations)
+        self.iterations = whole_number(iterations, "iterations", 1)
         super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
                          nuisance=nuisance)
 

@@ -21,7 +21,7 @@ from ..core.arrays import Array, IntArray
 from ..core.linalg import solve_spd
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
-from .base import FilterSettings, KindOptions, ProcessNoise, TrackingFilter
+from .base import FilterSettings, KindOptions, ProcessNoise, TrackingFilter, whole_number
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import ExtendedKalmanFilter
 from .general import PreparedMeasurements
@@ -175,13 +175,11 @@ class GaussianSumFilter(TrackingFilter):
                              ("merge", merge)):
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{label} must be >= 0; got {value}")
-        if isinstance(capacity, bool) or int(capacity) != capacity or capacity < 1:
-            raise ValueError(f"capacity must be a whole number >= 1; got {capacity!r}")
+        self.capacity = whole_number(capacity, "capacity", 1)
         self.component = component
         self.split_threshold = float(split_threshold)
         self.prune = float(prune)
         self.merge = float(merge)
-        self.capacity = int(capacity)
         #: The sum after each update (with ``history=True``), for the smoother.
         self.history: list[SumStep] | None = [] if history else None
         super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,

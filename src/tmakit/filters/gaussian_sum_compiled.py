@@ -156,7 +156,7 @@ def _whitened_distance2(chol: Array, m: Array, i: int, j: int,
 @_inline
 def _members_moments(w: Array, m: Array, p: Array, members: list[int], mean: Array, cov: Array,
                      d: Array) -> float:  # pragma: no cover - compiled
-    """Write the weighted moments of ``members`` (``cov`` times their weight); give the weight."""
+    """Write the moments of the members' mixture (law of total covariance); give their weight."""
     n = m.shape[1]
     wt = 0.0
     mean[:] = 0.0
@@ -173,6 +173,12 @@ def _members_moments(w: Array, m: Array, p: Array, members: list[int], mean: Arr
         for r in range(n):
             for c in range(n):
                 cov[r, c] += w[j] * (p[j, r, c] + d[r] * d[c])
+    for r in range(n):
+        cov[r, r] /= wt
+        for c in range(r + 1, n):
+            v = 0.5 * (cov[r, c] + cov[c, r]) / wt
+            cov[r, c] = v
+            cov[c, r] = v
     return wt
 
 
@@ -190,7 +196,7 @@ def _merge(w: Array, m: Array, p: Array, origin: IntArray, count: int,
     nm = np.empty((count, n))
     npp = np.empty((count, n, n))
     norigin = np.empty(count, dtype=origin.dtype)
-    d, mean, cov = np.empty(n), np.empty(n), np.empty((n, n))
+    d = np.empty(n)
     out = 0
     for oi in range(count):
         i = order[oi]
@@ -205,12 +211,7 @@ def _merge(w: Array, m: Array, p: Array, origin: IntArray, count: int,
                 if _whitened_distance2(chol, m, i, j, d) < merge:
                     used[j] = True
                     members.append(j)
-        wt = _members_moments(w, m, p, members, mean, cov, d)
-        nw[out] = wt
-        for r in range(n):
-            nm[out, r] = mean[r]
-            for c in range(n):
-                npp[out, r, c] = 0.5 * (cov[r, c] + cov[c, r]) / wt
+        nw[out] = _members_moments(w, m, p, members, nm[out], npp[out], d)
         norigin[out] = origin[i]
         out += 1
     for i in range(out):
@@ -243,23 +244,8 @@ def reduce_sum(w: Array, m: Array, p: Array, origin: IntArray, count: int, prune
 @_jit
 def sum_moments(w: Array, m: Array, p: Array, count: int, mean: Array,
                 cov: Array) -> None:  # pragma: no cover - compiled
-    """Write the sum's mean and covariance (the law of total covariance)."""
-    n = m.shape[1]
-    mean[:] = 0.0
-    for i in range(count):
-        for r in range(n):
-            mean[r] += w[i] * m[i, r]
-    cov[:, :] = 0.0
-    for i in range(count):
-        d = m[i] - mean
-        for r in range(n):
-            for c in range(n):
-                cov[r, c] += w[i] * (p[i, r, c] + d[r] * d[c])
-    for r in range(n):
-        for c in range(r + 1, n):
-            v = 0.5 * (cov[r, c] + cov[c, r])
-            cov[r, c] = v
-            cov[c, r] = v
+    """Write the sum's mean and covariance."""
+    _members_moments(w, m, p, list(range(count)), mean, cov, np.empty(m.shape[1]))
 
 
 @_inline

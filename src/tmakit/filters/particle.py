@@ -21,7 +21,7 @@ from ..core.arrays import Array
 from ..core.linalg import nearest_psd, safe_cholesky, solve_spd, symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
-from .base import FilterSettings, KindOptions, ProcessNoise, TrackingFilter
+from .base import FilterSettings, KindOptions, ProcessNoise, TrackingFilter, whole_number
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import LOG_2PI
 from .track import UpdateInfo
@@ -123,15 +123,12 @@ class ParticleFilter(TrackingFilter):
         self._start_prior = bearing_start
         #: The weighted clouds after each update (with ``history=True``), for the smoother.
         self.history: list[ParticleStep] | None = [] if history else None
-        if isinstance(particles, bool) or not isinstance(particles, (int, np.integer)) \
-                or particles < 2:
-            raise ValueError(f"particles must be a whole number >= 2; got {particles!r}")
+        self.n_particles = whole_number(particles, "particles", 2)
         if not (0.0 < float(resample_threshold) <= 1.0):
             raise ValueError("resample_threshold must be in (0, 1] (a fraction of the "
                              f"particle count); got {resample_threshold}")
         if not (math.isfinite(bandwidth) and bandwidth > 0):
             raise ValueError(f"bandwidth must be > 0; got {bandwidth}")
-        self.n_particles = int(particles)
         self.rng = np.random.default_rng(rng)
         self.resample_threshold = float(resample_threshold)
         self.regularise = bool(regularise)

@@ -30,6 +30,7 @@ import numpy as np
 
 from ..core.arrays import Array, IntArray
 from ..motion.dynamics import NearlyConstantVelocity
+from .base import whole_number
 from .gaussian_sum import SumStep, mixture_moments
 from .imm import ModelHistory, imm_smooth, models_of
 from .track import Track
@@ -260,8 +261,7 @@ def smooth(track: Track, *, lag: int | None = None,
     ----------
     The IMM's: Helmick, Blair & Hoffman (1995), :func:`~tmakit.filters.imm.imm_smooth`.
     """
-    if lag is not None and (isinstance(lag, bool) or int(lag) != lag or lag < 0):
-        raise ValueError(f"lag must be a whole number of updates >= 0; got {lag!r}")
+    lag = None if lag is None else whole_number(lag, "lag", 0, " of updates")
     if len(track) == 0:
         return track
     multiple = track.extra.model_probabilities is not None
