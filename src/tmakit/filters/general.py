@@ -51,8 +51,6 @@ class PreparedMeasurements:
         self.order = order
         #: Update times (s): the last (latest) row time of each update, as ``run`` uses.
         self.times = t[self.bounds[1:] - 1] if n else np.zeros(0)
-        self.models: dict[str, MeasurementModel]
-        self.nuisance: dict[str, Array]
         self.models, self.nuisance = resolve_models(meas.kinds, options, nuisance)
         self.kind = meas.kind[order]
         self.values = meas.value_si[order]

@@ -374,15 +374,12 @@ class ParticleFilter(TrackingFilter):
     def _weigh(self, loglik: Array, nu: Array, r: Array) -> UpdateInfo:
         """Make the general update from per-particle log-likelihoods (N,) and residuals (N, m)."""
         bad = ~np.isfinite(loglik)
-        finite = ~bad
+        wp = self._w  # the NIS from the predicted measurement moments (weights before)
         if bad.any():
             loglik = np.where(bad, -np.inf, loglik)
-        # NIS from the predicted measurement moments (weights before the update).
-        wp = self._w
-        if bad.any():
-            wp = np.where(finite, wp, 0.0)
+            wp = np.where(bad, 0.0, wp)
             wp = wp / max(float(np.sum(wp)), 1e-300)
-            nu = np.where(finite[:, None], nu, 0.0)
+            nu = np.where(bad[:, None], 0.0, nu)
         nu_bar = nu.T @ wp
         dev = nu - nu_bar
         s_pred = symmetrise((dev.T * wp) @ dev + r)
