@@ -69,16 +69,12 @@ class SumStep:
                    covariances[:count].copy(), origins[:count].copy())
 
 
-def check_component(component: str) -> None:
-    """Refuse a component filter not in :data:`COMPONENTS`."""
-    if component not in COMPONENTS:
-        raise ValueError(f"component must be one of {', '.join(COMPONENTS)}; got "
-                         f"{component!r}")
-
-
 def component_filter(filt: TrackingFilter, component: str, iterations: int, mean: ArrayLike,
                      covariance: ArrayLike) -> ExtendedKalmanFilter:
     """Give the filter whose arithmetic updates each Gaussian of ``filt`` (EKF: ``iterations``)."""
+    if component not in COMPONENTS:
+        raise ValueError(f"component must be one of {', '.join(COMPONENTS)}; got "
+                         f"{component!r}")
     if component != "ekf" and iterations != 1:
         raise ValueError(f"iterations apply to EKF components; got {iterations} with "
                          f"{component!r}")
@@ -170,7 +166,6 @@ class GaussianSumFilter(TrackingFilter):
                  dynamics: NearlyConstantVelocity | None = None,
                  options: KindOptions | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
-        check_component(component)
         for label, value in (("split_threshold", split_threshold), ("prune", prune),
                              ("merge", merge)):
             if not (math.isfinite(value) and value >= 0):

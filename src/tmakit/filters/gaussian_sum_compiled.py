@@ -16,6 +16,7 @@ import numba
 import numpy as np
 
 from ..core.arrays import Array, BoolArray, IntArray
+from .ekf import IEKF_TOL, LOG_2PI
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 _inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -23,8 +24,6 @@ _inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always
 SPLIT_WEIGHT = 0.2252246249
 SPLIT_OFFSET = 1.0575154615
 SPLIT_VARIANCE = 1.0 - 2.0 * SPLIT_WEIGHT * SPLIT_OFFSET**2
-LOG_2PI = math.log(2.0 * math.pi)
-IEKF_TOL = 1e-10  # as tmakit.filters.ekf.IEKF_TOL
 TWO_PI = 2.0 * math.pi
 
 

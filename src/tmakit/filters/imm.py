@@ -24,7 +24,6 @@ from .base import KindOptions, ProcessNoise, TrackingFilter
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import ExtendedKalmanFilter
 from .gaussian_sum import (
-    check_component,
     component_filter,
     mixture_moments,
     update_components,
@@ -189,7 +188,6 @@ class InteractingMultipleModel(_MultipleModels):
                  q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
                  options: KindOptions | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
-        check_component(component)
         if not (isinstance(rate_std, (int, float)) and math.isfinite(rate_std) and rate_std > 0):
             raise ValueError(f"rate_std must be a turn rate's std > 0 (rad/s); got {rate_std!r}")
         self.rate_noise, self.rate_std = rate_noise, float(rate_std)
