@@ -256,11 +256,9 @@ def _wrap(a: float) -> float:  # pragma: no cover - compiled
 @_inline
 def _ekf_bearing(m: Array, p: Array, i: int, z: float, var: float, sx: float, sy: float,
                  iterations: int) -> tuple[float, float, bool]:  # pragma: no cover - compiled
-    """Update component ``i`` with one bearing (EKF, iterated as the filter's ``iterations``).
+    """Update component ``i`` with one bearing, as ``ExtendedKalmanFilter.update_gaussian`` does.
 
-    The iterated update of Bell & Cathey (1993) as :class:`~tmakit.filters.ExtendedKalmanFilter`
-    makes it; innovation and variance (the weight's likelihood) are the last linearisation's,
-    as its ``update_gaussian`` gives them.
+    Iterated (Bell & Cathey 1993); innovation and variance are the last linearisation's.
     """
     prior = m[i].copy()
     x = prior.copy()

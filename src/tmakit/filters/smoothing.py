@@ -104,13 +104,9 @@ def _history_of(track: Track) -> list | None:
 def _backward_simulation(history: list, models: list[NearlyConstantVelocity],
                          trajectories: int, rng: np.random.Generator
                          ) -> tuple[Array, Array, Array | None]:
-    """Draw paths backwards through the clouds (FFBSi); give their means and covariances.
+    """Draw paths backwards through the clouds (FFBSi); give their moments and model shares.
 
-    With a multiple-model filter's clouds (each particle's model in ``labels``), the model is
-    part of the state: the transition density of a particle ``(x, i)`` to a path's ``(x', j)``
-    is ``p_ij N(x'; Phi_j x, Q_j)``, and the paths' model shares are given too. Per update, the
-    paths of each model draw their predecessors at once in one compiled pass over paths x
-    particles (:func:`_draw_predecessors`).
+    A multiple-model filter's ``labels`` make the model part of the state (docs/tracking.md).
     """
     k_all = len(history)
     n = history[0].particles.shape[0]
@@ -177,11 +173,9 @@ _NEGLIGIBLE = 60.0
 
 def _draw_predecessors(a: Array, prior: Array, b: Array, u: Array,
                        out: IntArray) -> None:  # pragma: no cover - compiled
-    """Draw each path's predecessor: particle i with probability ~ exp(prior_i - |a_i - b_m|^2/2).
+    """Draw into ``out[m]`` path ``b[m]``'s predecessor, by its cumulative weights at ``u[m]``.
 
-    ``a`` (n, N) the whitened predicted particles, ``prior`` (N,) their log weights (with the
-    switch's), ``b`` (M, n) the whitened paths, ``u`` (M,) uniform draws; the inverse of each
-    path's cumulative weights at ``u`` into ``out`` (M,).
+    Particle ``i`` has the weight ``exp(prior_i - |a_i - b_m|^2 / 2)`` (whitened ``a``, ``b``).
     """
     dim, n_p = a.shape
     score = np.empty(n_p)
