@@ -231,7 +231,6 @@ class TrackingFilter(ABC):
         Returns
         -------
         TrackingFilter
-            A filter of this class.
 
         Raises
         ------
@@ -272,7 +271,6 @@ class TrackingFilter(ABC):
         Returns
         -------
         TrackingFilter
-            A filter of this class.
 
         Raises
         ------

@@ -127,9 +127,7 @@ class ExtendedKalmanFilter(TrackingFilter):
 
     def update_gaussian(self, group: MeasurementGroup, mean: Array, cov: Array
                         ) -> tuple[Array, Array, Array, Array, float]:
-        """Update a given Gaussian with this filter's arithmetic (for filters of several).
-
-        This filter's own state is left as it is.
+        """Update a given Gaussian with this filter's arithmetic, its own state left as it is.
 
         Parameters
         ----------

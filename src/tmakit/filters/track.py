@@ -200,7 +200,6 @@ class Track:
         Returns
         -------
         numpy.ndarray
-            ``states - truth``.
         """
         return cast(Array, self.states - np.asarray(truth, dtype=float))
 
@@ -210,13 +209,13 @@ class Track:
         Parameters
         ----------
         truth : array_like
-            True states ``(K, n)`` at :attr:`times` (m, m/s).
+            As for :meth:`errors`.
 
         Returns
         -------
         numpy.ndarray
-            NEES per update; ``inf`` where a singular covariance (a collapsed particle cloud) says
-            the error is impossible.
+            ``inf`` where a singular covariance (a collapsed particle cloud) says the error is
+            impossible.
         """
         err = self.errors(truth)
         try:
@@ -257,20 +256,14 @@ class Track:
 
         Parameters
         ----------
-        meas : MeasurementSet, optional
-            The measurements tracked: ENU and clock-time origins, the sensor's track.
+        meas, sensor, level
+            As for :meth:`tmakit.EstimateResult.answer`.
         index : int
             The update (default the last).
-        sensor : str, optional
-            Sensor for range and bearing; default the sensor of the last measurement.
-        level : float
-            Probability inside the position ellipse (default 0.95).
 
         Returns
         -------
         Answer
-            Position, course, speed, range and bearing at the update's time, each with its std,
-            and the position ellipse.
         """
         return track_answer(self, meas, index, sensor, level)
 
