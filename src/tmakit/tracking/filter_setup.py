@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike
 from ..core.arrays import Array
 from ..data import MeasurementSet
 from ..filters import FILTERS, NearlyConstantVelocity, TrackingFilter, state_names
+from ..filters.base import KindOptions
 from ..motion import motion_from_name
 from .errors import TrackingError
 
@@ -24,8 +25,6 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["FilterSetup", "filter_class", "filter_dim", "noise_density", "process_noise",
            "random_filters", "state_vector"]
-
-Options = Mapping[str, Mapping[str, object]]
 
 
 def filter_dim(meas: MeasurementSet, dim: int | None = None) -> int:
@@ -245,7 +244,7 @@ class FilterSetup:
     @classmethod
     def create(cls, filter: str, dim: int, q: float | ArrayLike = 0.0,
                particles: int | None = None, rng: np.random.Generator | int | None = None,
-               options: Options | None = None, q_density: float | ArrayLike = 0.0,
+               options: KindOptions | None = None, q_density: float | ArrayLike = 0.0,
                settings: Mapping[str, object] | None = None) -> FilterSetup:
         """Check and collect the settings of a filter by name.
 
