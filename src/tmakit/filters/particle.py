@@ -173,26 +173,22 @@ class ParticleFilter(TrackingFilter):
 
     # -- state --------------------------------------------------------------------------------
     def _init_state(self, mean: Array, covariance: Array) -> None:
-        n = mean.shape[0]
+        n, n_p = mean.shape[0], self.n_particles
         if self._start_prior is not None:
             prior, first = self._start_prior
-            x = np.ascontiguousarray(prior.sample(first, self.n_particles, self.rng,
-                                                  n // 2).T)
+            x = prior.sample(first, n_p, self.rng, n // 2).T
         else:
-            chol = safe_cholesky(covariance)
-            x = chol @ self.rng.standard_normal((n, self.n_particles))
+            x = safe_cholesky(covariance) @ self.rng.standard_normal((n, n_p))
             x += mean[:, None]
         self._x = np.ascontiguousarray(x)  # (n, N): one row per state component
+        self._w = np.full(n_p, 1.0 / n_p)
+        self._logw = np.full(n_p, -math.log(n_p))
         if self.history is not None:
-            self.history.append(ParticleStep(self.time, self._x.copy(),
-                                             np.full(self.n_particles, 1.0 / self.n_particles)))
-        self._w = np.full(self.n_particles, 1.0 / self.n_particles)
-        self._logw = np.full(self.n_particles, -math.log(self.n_particles))
+            self.history.append(ParticleStep(self.time, self._x.copy(), self._w.copy()))
         self._uniform = True
         self._moments: tuple[Array, Array] | None = None
         # Work arrays, reused at every step: fresh ones for every operation cost more in
         # memory traffic than the arithmetic on 10^4 particles.
-        n_p = self.n_particles
         self._work = np.empty((3, n_p))
         self._w_spare = np.empty(n_p)
         self._logw_spare = np.empty(n_p)
