@@ -32,6 +32,7 @@ from ..core.arrays import Array, IntArray
 from ..motion.dynamics import NearlyConstantVelocity
 from .base import whole_number
 from .gaussian_sum import SumStep, mixture_moments
+from .general import DynamicsCache
 from .imm import ModelHistory, imm_smooth, models_of
 from .track import Track
 
@@ -45,7 +46,7 @@ def _dynamics_of(track: Track) -> NearlyConstantVelocity:
     return NearlyConstantVelocity(dim, q, qd)
 
 
-def _lineage_back(steps: list[SumStep], dynamics: NearlyConstantVelocity, start: int,
+def _lineage_back(steps: list[SumStep], dynamics: DynamicsCache, start: int,
                   stop: int) -> list[SumStep]:
     """Run the RTS pass on the sum of step ``stop`` back along its lineage to ``start``."""
     last = steps[stop]
@@ -59,7 +60,7 @@ def _lineage_back(steps: list[SumStep], dynamics: NearlyConstantVelocity, start:
                              f"{k + 1}; it cannot be smoothed")
         step = steps[k]
         dt = float(steps[k + 1].time - step.time)
-        phi, q = dynamics.transition(dt), dynamics.noise(dt)
+        phi, _, q = dynamics.get(dt)
         m, p = step.means[parent], step.covariances[parent]
         pred = phi @ p @ phi.T + q
         pred = 0.5 * (pred + np.swapaxes(pred, -1, -2))
@@ -78,11 +79,11 @@ def _lineage_back(steps: list[SumStep], dynamics: NearlyConstantVelocity, start:
 def smooth_sum(steps: list[SumStep], dynamics: NearlyConstantVelocity,
                lag: int | None = None) -> tuple[Array, Array, list[SumStep]]:
     """Smooth a Gaussian sum's history (fixed-lag with ``lag``): moments and sums per step."""
-    k_all = len(steps)
+    k_all, cache = len(steps), DynamicsCache(dynamics)
     if lag is None or lag >= k_all - 1:
-        sums = _lineage_back(steps, dynamics, 0, k_all - 1)
+        sums = _lineage_back(steps, cache, 0, k_all - 1)
     else:
-        sums = [_lineage_back(steps, dynamics, k, min(k + int(lag), k_all - 1))[0]
+        sums = [_lineage_back(steps, cache, k, min(k + int(lag), k_all - 1))[0]
                 for k in range(k_all)]
     moments = [mixture_moments(s.weights, s.means, s.covariances) for s in sums]
     return (np.array([m for m, _ in moments]), np.array([p for _, p in moments]), sums)
