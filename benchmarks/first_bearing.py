@@ -30,7 +30,7 @@ steps, tracks lost (final error > 5x the final bound), the share of (run, step) 
 from the first bearing on with the truth inside the 95 % position ellipse (steps without an
 estimate count as outside), and for ``gsf`` both smoothers' RMS against the filtered one
 and their 95 %-ellipse coverage: the Gaussian-sum smoother (each component along its
-lineage, :mod:`tmakit.filters.sum_smoothing`) and the RTS smoother on the sum's moments.
+lineage, :mod:`tmakit.filters.smoothing`) and the RTS smoother on the sum's moments.
 The PCRB is the Tichavský recursion (:func:`tmakit.bounds.pcrb.deterministic_pcrb`) along
 each run's true path, with ``J_0`` the inverse of the prior's covariance at the first bearing
 (:meth:`tmakit.BearingPrior.gaussian`, its exact moments), the same continuous white-noise

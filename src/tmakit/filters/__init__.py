@@ -20,17 +20,10 @@ from .smoothing import smooth
 from .track import Track, TrackExtras, UpdateInfo
 from .ukf import CubatureKalmanFilter, UnscentedKalmanFilter
 
-FILTERS: dict[str, type[TrackingFilter]] = {
-    ExtendedKalmanFilter.name: ExtendedKalmanFilter,
-    UnscentedKalmanFilter.name: UnscentedKalmanFilter,
-    ParticleFilter.name: ParticleFilter,
-    ModifiedGainEKF.name: ModifiedGainEKF,
-    CubatureKalmanFilter.name: CubatureKalmanFilter,
-    GaussianSumFilter.name: GaussianSumFilter,
-    InteractingMultipleModel.name: InteractingMultipleModel,
-    ModifiedPolarEKF.name: ModifiedPolarEKF,
-    MultipleModelParticleFilter.name: MultipleModelParticleFilter,
-}
+FILTERS: dict[str, type[TrackingFilter]] = {cls.name: cls for cls in (
+    ExtendedKalmanFilter, UnscentedKalmanFilter, ParticleFilter, ModifiedGainEKF,
+    CubatureKalmanFilter, GaussianSumFilter, InteractingMultipleModel, ModifiedPolarEKF,
+    MultipleModelParticleFilter)}
 
 __all__ = [
     "FILTERS",

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from typing import TYPE_CHECKING, Self, TypedDict, Unpack
+from typing import TYPE_CHECKING, Any, Self, TypedDict, Unpack
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -32,6 +32,17 @@ if TYPE_CHECKING:  # pragma: no cover
 ProcessNoise = float | tuple[float, ...]
 #: Per-kind measurement-model options (``{"frequency": {"drift": True}}``).
 KindOptions = Mapping[str, Mapping[str, object]]
+
+
+def whole_number(value: float, name: str, low: int, what: str = "") -> int:
+    """Give ``value`` as an int: a whole number (not a bool) >= ``low``, else ValueError."""
+    try:
+        ok = not isinstance(value, bool) and int(value) == value and value >= low
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ValueError(f"{name} must be a whole number{what} >= {low}; got {value!r}")
+    return int(value)
 
 
 class FilterSettings(TypedDict, total=False):
@@ -142,6 +153,8 @@ class TrackingFilter(ABC):
     dims: tuple[int, ...] = (2, 3)
     #: Limit BLAS to one thread while working (:func:`tmakit.core.blas.one_thread`).
     single_blas_thread = False
+    #: What the filter keeps for its smoother (``history=True``), handed to ``track.extra``.
+    history: Any = None
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
@@ -218,7 +231,6 @@ class TrackingFilter(ABC):
         Returns
         -------
         TrackingFilter
-            A filter of this class.
 
         Raises
         ------
@@ -259,7 +271,6 @@ class TrackingFilter(ABC):
         Returns
         -------
         TrackingFilter
-            A filter of this class.
 
         Raises
         ------
@@ -431,4 +442,5 @@ class TrackingFilter(ABC):
     def _track(self, rec: Recorder) -> Track:
         t, x, p, nis, dof, ll = rec.parts()
         return Track(self.name, self.state_names, t, x, p, nis, dof, ll,
-                     extra=TrackExtras(skipped_updates=int(self.skipped_updates)))
+                     extra=TrackExtras(skipped_updates=int(self.skipped_updates),
+                                       history=self.history))

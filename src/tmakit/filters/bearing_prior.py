@@ -64,7 +64,6 @@ def first_bearing(meas: MeasurementSet) -> FirstBearing:
     Parameters
     ----------
     meas : MeasurementSet
-        The measurements.
 
     Returns
     -------
@@ -137,7 +136,7 @@ class BearingPrior:
         Returns
         -------
         str
-            E.g. ``range 500..50000 m (default), speed <= 20 m/s (default)``.
+            ``range 500..50000 m (default), speed <= 20 m/s (default)``.
         """
         def tag(what: str) -> str:
             return "" if what in self.given else " (default)"
@@ -156,7 +155,7 @@ class BearingPrior:
                 "height_m": list(self.height), "given": list(self.given)}
 
     def component_count(self, max_cv: float = MAX_RANGE_CV) -> int:
-        """Give the fewest components whose range std is at most ``max_cv`` of their range.
+        """Give the fewest components (>= 1) whose range std is at most ``max_cv`` of their range.
 
         A sub-interval ``[a, rho a]`` has the coefficient of variation
         ``(rho - 1) / (sqrt(3) (rho + 1))`` (Peach 1995, §3).
@@ -169,7 +168,6 @@ class BearingPrior:
         Returns
         -------
         int
-            At least 1.
         """
         c = math.sqrt(3.0) * max_cv
         rho = (1.0 + c) / (1.0 - c) if c < 1 else math.inf
@@ -210,12 +208,8 @@ class BearingPrior:
 
         Returns
         -------
-        weights : numpy.ndarray
-            ``(M,)``, equal, summing to 1.
-        means : numpy.ndarray
-            ``(M, 2 dim)`` (m, m/s).
-        covariances : numpy.ndarray
-            ``(M, 2 dim, 2 dim)``.
+        weights, means, covariances : numpy.ndarray
+            ``(M,)`` equal, ``(M, 2 dim)`` (m, m/s) and ``(M, 2 dim, 2 dim)``.
 
         Raises
         ------
@@ -248,17 +242,13 @@ class BearingPrior:
 
         Parameters
         ----------
-        first : FirstBearing
-            The bearing it is centred on.
-        dim : int
-            2 or 3.
+        first, dim
+            As for :meth:`mixture`.
 
         Returns
         -------
-        mean : numpy.ndarray
-            ``(2 dim,)`` (m, m/s).
-        covariance : numpy.ndarray
-            ``(2 dim, 2 dim)``.
+        mean, covariance : numpy.ndarray
+            ``(2 dim,)`` (m, m/s) and ``(2 dim, 2 dim)``.
         """
         a, b = self.range_min, self.range_max
         span = math.log(b / a)
@@ -276,23 +266,18 @@ class BearingPrior:
 
     def sample(self, first: FirstBearing, count: int, rng: np.random.Generator,
                dim: int = 2) -> Array:
-        """Draw states from the prior (bearing normal about the measured one).
+        """Draw ``count`` states ``(count, 2 dim)`` (m, m/s) from the prior, the bearing normal.
 
         Parameters
         ----------
-        first : FirstBearing
-            The bearing it is centred on.
+        first, dim
+            As for :meth:`mixture`.
         count : int
-            Number of states.
         rng : numpy.random.Generator
-            The random source.
-        dim : int
-            2 or 3.
 
         Returns
         -------
         numpy.ndarray
-            ``(count, 2 dim)`` (m, m/s).
         """
         r = self.range_min * np.exp(rng.random(count) * math.log(self.range_max
                                                                  / self.range_min))

@@ -12,7 +12,7 @@ from ..core.linalg import solve_spd
 from ..data import MeasurementSet
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import TIME_TOLERANCE, MeasurementGroup
-from .base import KindOptions, ProcessNoise, TrackingFilter
+from .base import KindOptions, ProcessNoise, TrackingFilter, whole_number
 from .general import (
     DynamicsCache,
     PreparedMeasurements,
@@ -94,10 +94,7 @@ class ExtendedKalmanFilter(TrackingFilter):
                  dynamics: NearlyConstantVelocity | None = None,
                  options: KindOptions | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
-        if isinstance(iterations, bool) or not isinstance(iterations, (int, np.integer)) \
-                or iterations < 1:
-            raise ValueError(f"iterations must be a whole number >= 1; got {iterations!r}")
-        self.iterations = int(iterations)
+        self.iterations = whole_number(iterations, "iterations", 1)
         super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
                          nuisance=nuisance)
 
@@ -130,9 +127,7 @@ class ExtendedKalmanFilter(TrackingFilter):
 
     def update_gaussian(self, group: MeasurementGroup, mean: Array, cov: Array
                         ) -> tuple[Array, Array, Array, Array, float]:
-        """Update a given Gaussian with this filter's arithmetic (for filters of several).
-
-        This filter's own state is left as it is.
+        """Update a given Gaussian with this filter's arithmetic, its own state left as it is.
 
         Parameters
         ----------
@@ -225,10 +220,7 @@ class ExtendedKalmanFilter(TrackingFilter):
                 cov = phi.dot(cov).dot(phit)
                 cov += q
                 mean, t = phi.dot(mean), tk
-            elif dt < -TIME_TOLERANCE:
-                raise ValueError(f"filters run forward: cannot predict from t={t} s back to "
-                                 f"t={tk} s")
-            elif tk > t:
+            elif tk > t:  # (never earlier: run checked the first time, and the times increase)
                 t = tk
             mean, cov, nis, m, lli = update(step, mean, cov)
             ll += lli

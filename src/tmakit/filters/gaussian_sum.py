@@ -21,7 +21,7 @@ from ..core.arrays import Array, IntArray
 from ..core.linalg import solve_spd
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
-from .base import FilterSettings, KindOptions, ProcessNoise, TrackingFilter
+from .base import FilterSettings, KindOptions, ProcessNoise, TrackingFilter, whole_number
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import ExtendedKalmanFilter
 from .general import PreparedMeasurements
@@ -60,21 +60,29 @@ class SumStep:
     covariances: Array  # (M, n, n)
     origins: IntArray  # (M,): the component of the previous step each descends from (-1: none)
 
+    @classmethod
+    def first(cls, time: float, weights: Array, means: Array, covariances: Array,
+              origins: IntArray, count: int) -> SumStep:
+        """Copy the first ``count`` components, their weights normalised."""
+        w = weights[:count]
+        return cls(float(time), w / np.sum(w), means[:count].copy(),
+                   covariances[:count].copy(), origins[:count].copy())
 
-def check_component(component: str) -> None:
-    """Refuse a component filter not in :data:`COMPONENTS`."""
+
+def component_filter(filt: TrackingFilter, component: str, iterations: int, mean: ArrayLike,
+                     covariance: ArrayLike) -> ExtendedKalmanFilter:
+    """Give the filter whose arithmetic updates each Gaussian of ``filt`` (EKF: ``iterations``)."""
     if component not in COMPONENTS:
         raise ValueError(f"component must be one of {', '.join(COMPONENTS)}; got "
                          f"{component!r}")
-
-
-def component_filter(filt: TrackingFilter, component: str, mean: ArrayLike,
-                     covariance: ArrayLike, **settings: int) -> ExtendedKalmanFilter:
-    """Give the filter whose arithmetic updates each Gaussian of ``filt``."""
+    if component != "ekf" and iterations != 1:
+        raise ValueError(f"iterations apply to EKF components; got {iterations} with "
+                         f"{component!r}")
     return COMPONENTS[component](np.asarray(mean, dtype=float),
                                  np.asarray(covariance, dtype=float), filt.time,
                                  dynamics=filt.dynamics, options=filt.options,
-                                 nuisance=filt.nuisance, **settings)
+                                 nuisance=filt.nuisance,
+                                 **({"iterations": iterations} if component == "ekf" else {}))
 
 
 def mixture_moments(weights: Array, means: Array, covs: Array) -> tuple[Array, Array]:
@@ -158,18 +166,15 @@ class GaussianSumFilter(TrackingFilter):
                  dynamics: NearlyConstantVelocity | None = None,
                  options: KindOptions | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
-        check_component(component)
         for label, value in (("split_threshold", split_threshold), ("prune", prune),
                              ("merge", merge)):
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{label} must be >= 0; got {value}")
-        if isinstance(capacity, bool) or int(capacity) != capacity or capacity < 1:
-            raise ValueError(f"capacity must be a whole number >= 1; got {capacity!r}")
+        self.capacity = whole_number(capacity, "capacity", 1)
         self.component = component
         self.split_threshold = float(split_threshold)
         self.prune = float(prune)
         self.merge = float(merge)
-        self.capacity = int(capacity)
         #: The sum after each update (with ``history=True``), for the smoother.
         self.history: list[SumStep] | None = [] if history else None
         super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
@@ -179,12 +184,7 @@ class GaussianSumFilter(TrackingFilter):
                              "NearlyConstantVelocity dynamics")
         if iterations is None:
             iterations = ITERATIONS if component == "ekf" else 1
-        if component != "ekf" and iterations != 1:
-            raise ValueError(f"iterations apply to EKF components; got {iterations} with "
-                             f"{component!r}")
-        self._unit = component_filter(self, component, mean, covariance,
-                                      **({"iterations": iterations} if component == "ekf"
-                                         else {}))
+        self._unit = component_filter(self, component, iterations, mean, covariance)
         self.iterations = self._unit.iterations
 
     def _init_state(self, mean: Array, covariance: Array) -> None:
@@ -212,10 +212,8 @@ class GaussianSumFilter(TrackingFilter):
     def _keep(self) -> None:
         """Record the sum (with ``history``) after an update or at the start."""
         if self.history is not None:
-            c = self._count
-            self.history.append(SumStep(self.time, self._w[:c] / np.sum(self._w[:c]),
-                                        self._m[:c].copy(), self._p[:c].copy(),
-                                        self._origin[:c].copy()))
+            self.history.append(SumStep.first(self.time, self._w, self._m, self._p,
+                                              self._origin, self._count))
 
     @classmethod
     def from_mixture(cls, weights: ArrayLike, means: ArrayLike, covariances: ArrayLike,
@@ -330,9 +328,6 @@ class GaussianSumFilter(TrackingFilter):
             return None
         times, zs = prepared.time[start:], prepared.values[start:]
         k = int(times.shape[0])
-        if times.shape[0] and times[0] < self.time - 1e-9:
-            raise ValueError(f"filters run forward: cannot predict from t={self.time} s back "
-                             f"to t={times[0]} s")
         unit = self._unit
         sp = (np.zeros(0) if not isinstance(unit, UnscentedKalmanFilter) else np.array(
             [unit._gamma, unit._wm[0], unit._wc[0], unit._wm[1]]))
@@ -340,20 +335,17 @@ class GaussianSumFilter(TrackingFilter):
         means, covs = np.zeros((k, 4)), np.zeros((k, 4, 4))
         nis, lls, counts = np.zeros(k), np.zeros(k), np.zeros(k)
         cap = self._w.shape[0] if self.history is not None else 0
-        kept = (np.zeros((k if cap else 0, cap)), np.zeros((k if cap else 0, cap, 4)),
-                np.zeros((k if cap else 0, cap, 4, 4)),
-                np.zeros((k if cap else 0, cap), dtype=np.int64))
+        rows = k if cap else 0
+        kept = (np.zeros((rows, cap)), np.zeros((rows, cap, 4)), np.zeros((rows, cap, 4, 4)),
+                np.zeros((rows, cap), dtype=np.int64))
         count, t, skipped_now = _sums().gsf_bearing_2d(
             self._w, self._m, self._p, self._origin, self._count, self.time, times, zs,
             prepared.sigmas[start:] ** 2, np.ascontiguousarray(prepared.sensor_state[start:, :2]),
             qa, qd, sp, np.array([self.split_threshold, self.prune, self.merge, self.iterations]),
             means, covs, nis, lls, counts, kept)
         if self.history is not None:
-            for j in range(k):
-                c = int(counts[j])
-                w = kept[0][j, :c]
-                self.history.append(SumStep(float(times[j]), w / w.sum(), kept[1][j, :c].copy(),
-                                            kept[2][j, :c].copy(), kept[3][j, :c].copy()))
+            self.history += [SumStep.first(times[j], kept[0][j], kept[1][j], kept[2][j],
+                                           kept[3][j], int(counts[j])) for j in range(k)]
         self._count, self.time = int(count), float(t)
         self.skipped_updates += int(skipped_now)
         self._moments = None
@@ -366,7 +358,6 @@ class GaussianSumFilter(TrackingFilter):
     def _track(self, rec: Recorder) -> Track:
         track = super()._track(rec)
         track.extra.components = list(self.component_counts)
-        track.extra.history = self.history
         return track
 
 

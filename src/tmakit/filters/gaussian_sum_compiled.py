@@ -16,6 +16,7 @@ import numba
 import numpy as np
 
 from ..core.arrays import Array, BoolArray, IntArray
+from .ekf import IEKF_TOL, LOG_2PI
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 _inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -23,8 +24,6 @@ _inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always
 SPLIT_WEIGHT = 0.2252246249
 SPLIT_OFFSET = 1.0575154615
 SPLIT_VARIANCE = 1.0 - 2.0 * SPLIT_WEIGHT * SPLIT_OFFSET**2
-LOG_2PI = math.log(2.0 * math.pi)
-IEKF_TOL = 1e-10  # as tmakit.filters.ekf.IEKF_TOL
 TWO_PI = 2.0 * math.pi
 
 
@@ -156,7 +155,7 @@ def _whitened_distance2(chol: Array, m: Array, i: int, j: int,
 @_inline
 def _members_moments(w: Array, m: Array, p: Array, members: list[int], mean: Array, cov: Array,
                      d: Array) -> float:  # pragma: no cover - compiled
-    """Write the weighted moments of ``members`` (``cov`` times their weight); give the weight."""
+    """Write the moments of the members' mixture (law of total covariance); give their weight."""
     n = m.shape[1]
     wt = 0.0
     mean[:] = 0.0
@@ -173,6 +172,12 @@ def _members_moments(w: Array, m: Array, p: Array, members: list[int], mean: Arr
         for r in range(n):
             for c in range(n):
                 cov[r, c] += w[j] * (p[j, r, c] + d[r] * d[c])
+    for r in range(n):
+        cov[r, r] /= wt
+        for c in range(r + 1, n):
+            v = 0.5 * (cov[r, c] + cov[c, r]) / wt
+            cov[r, c] = v
+            cov[c, r] = v
     return wt
 
 
@@ -190,7 +195,7 @@ def _merge(w: Array, m: Array, p: Array, origin: IntArray, count: int,
     nm = np.empty((count, n))
     npp = np.empty((count, n, n))
     norigin = np.empty(count, dtype=origin.dtype)
-    d, mean, cov = np.empty(n), np.empty(n), np.empty((n, n))
+    d = np.empty(n)
     out = 0
     for oi in range(count):
         i = order[oi]
@@ -205,12 +210,7 @@ def _merge(w: Array, m: Array, p: Array, origin: IntArray, count: int,
                 if _whitened_distance2(chol, m, i, j, d) < merge:
                     used[j] = True
                     members.append(j)
-        wt = _members_moments(w, m, p, members, mean, cov, d)
-        nw[out] = wt
-        for r in range(n):
-            nm[out, r] = mean[r]
-            for c in range(n):
-                npp[out, r, c] = 0.5 * (cov[r, c] + cov[c, r]) / wt
+        nw[out] = _members_moments(w, m, p, members, nm[out], npp[out], d)
         norigin[out] = origin[i]
         out += 1
     for i in range(out):
@@ -243,23 +243,8 @@ def reduce_sum(w: Array, m: Array, p: Array, origin: IntArray, count: int, prune
 @_jit
 def sum_moments(w: Array, m: Array, p: Array, count: int, mean: Array,
                 cov: Array) -> None:  # pragma: no cover - compiled
-    """Write the sum's mean and covariance (the law of total covariance)."""
-    n = m.shape[1]
-    mean[:] = 0.0
-    for i in range(count):
-        for r in range(n):
-            mean[r] += w[i] * m[i, r]
-    cov[:, :] = 0.0
-    for i in range(count):
-        d = m[i] - mean
-        for r in range(n):
-            for c in range(n):
-                cov[r, c] += w[i] * (p[i, r, c] + d[r] * d[c])
-    for r in range(n):
-        for c in range(r + 1, n):
-            v = 0.5 * (cov[r, c] + cov[c, r])
-            cov[r, c] = v
-            cov[c, r] = v
+    """Write the sum's mean and covariance."""
+    _members_moments(w, m, p, list(range(count)), mean, cov, np.empty(m.shape[1]))
 
 
 @_inline
@@ -271,11 +256,9 @@ def _wrap(a: float) -> float:  # pragma: no cover - compiled
 @_inline
 def _ekf_bearing(m: Array, p: Array, i: int, z: float, var: float, sx: float, sy: float,
                  iterations: int) -> tuple[float, float, bool]:  # pragma: no cover - compiled
-    """Update component ``i`` with one bearing (EKF, iterated as the filter's ``iterations``).
+    """Update component ``i`` with one bearing, as ``ExtendedKalmanFilter.update_gaussian`` does.
 
-    The iterated update of Bell & Cathey (1993) as :class:`~tmakit.filters.ExtendedKalmanFilter`
-    makes it; innovation and variance (the weight's likelihood) are the last linearisation's,
-    as its ``update_gaussian`` gives them.
+    Iterated (Bell & Cathey 1993); innovation and variance are the last linearisation's.
     """
     prior = m[i].copy()
     x = prior.copy()

@@ -46,8 +46,6 @@ class PreparedMeasurements:
         self.order = order
         #: Update times (s): the last (latest) row time of each update, as ``run`` uses.
         self.times = t[self.bounds[1:] - 1] if n else np.zeros(0)
-        self.models: dict[str, MeasurementModel]
-        self.nuisance: dict[str, Array]
         self.models, self.nuisance = resolve_models(meas.kinds, options, nuisance)
         self.kind = meas.kind[order]
         self.values = meas.value_si[order]
@@ -58,8 +56,9 @@ class PreparedMeasurements:
         self.ref_sensor_state = meas.ref_sensor_state[order]
         self.sensor = meas.sensor[order]
         self._kind_codes = {k: i for i, k in enumerate(self.models)}
-        self._codes = (model_codes(meas.kind_code[order], list(self.models)) if n
-                       else np.zeros(0, dtype=np.int64))
+        #: Each row's kind as its position in :attr:`models`, in run order.
+        self.model_index: IntArray = (model_codes(meas.kind_code[order], list(self.models))
+                                      if n else np.zeros(0, dtype=np.int64))
         #: What the filters derive from the set once per run (e.g. the general path's plan).
         self.cache: dict[str, object] = {}
         #: Per pattern of kinds in an update (its kind codes): models, index, nuisance and
@@ -69,11 +68,6 @@ class PreparedMeasurements:
         #: Every update is one bearing row (the Gaussian sum's compiled run applies).
         self.single_bearing = bool(n > 0 and np.all(sizes == 1)
                                    and set(self.models) == {"bearing"})
-
-    @property
-    def model_index(self) -> IntArray:
-        """Each row's kind as its position in :attr:`models` ``(rows,)``, in run order."""
-        return self._codes
 
     def __len__(self) -> int:
         """Give the number of updates."""
@@ -86,7 +80,7 @@ class PreparedMeasurements:
     def group(self, k: int, t: float) -> MeasurementGroup:
         """Give update ``k`` as a :class:`MeasurementGroup`, from views of the columns."""
         a, b = int(self.bounds[k]), int(self.bounds[k + 1])
-        codes = self._codes[a:b]
+        codes = self.model_index[a:b]
         key = codes.tobytes()
         parts = self._layouts.get(key)
         if parts is None:  # the first update with this pattern of kinds
@@ -202,9 +196,7 @@ def kalman_gain(cov: Array, h: Array, r: Array, residual: Array
 
 def updated_covariance(cov: Array, gain: Array, hp: Array, h: Array, r: Array) -> Array:
     """Give ``P - K H P`` symmetrised, or the Joseph form when that fails its Cholesky check."""
-    p = cov - gain.dot(hp)
-    p = p + p.T
-    p *= 0.5
+    p = sym(cov - gain.dot(hp))
     if dpotrf(p, lower=1, clean=0)[1] == 0:
         return p
     return joseph(cov, gain, h, r)

@@ -24,41 +24,29 @@ from .base import KindOptions, ProcessNoise, TrackingFilter
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import ExtendedKalmanFilter
 from .gaussian_sum import (
-    check_component,
     component_filter,
     mixture_moments,
     update_components,
 )
-from .particle import ParticleFilter, ParticleStep
+from .particle import ParticleFilter, ParticleStep, psd_root
 from .track import Recorder, Track, UpdateInfo
 
-#: Turn rates of the default coordinated-turn models (deg/s), each taken to the left and to the
-#: right: a bank in steps of 2 up to an aircraft's standard-rate turn (3 deg/s), so that any
-#: turn rate between 0.53 and 4.2 deg/s is within a factor sqrt(2) of a model's; a slower turn
-#: is followed by mixing the straight model and the 0.75 deg/s ones. No 0.375 deg/s model: with
-#: bearings of a few degrees it is barely told from the straight model, and after a turn it held
-#: the probability on the straight leg for minutes (docs/tracking.md, "the model bank").
+#: Turn rates of the default coordinated-turn models (deg/s), each to the left and to the right:
+#: any rate from 0.53 to 4.2 deg/s within sqrt(2) of a model's (docs/tracking.md, "the model
+#: bank", says why none at 0.375 deg/s).
 TURN_RATES_DEG = (0.75, 1.5, 3.0)
-#: Acceleration std of the coordinated-turn models (m/s^2): small, since a turn between two of
-#: the bank's rates is followed by mixing the two models (0.15 measured no better on
-#: hoerst2010, docs/tracking.md).
+#: Acceleration std of the coordinated-turn models (m/s^2): a turn between two of the bank's
+#: rates is followed by mixing the two.
 TURN_Q = 0.05
-#: The turn-rate model's random walk (rad/s per sqrt(s), :class:`UnknownRateTurn`): ... (tuned
-#: below) ... and the std of its turn rate at the start (rad/s): a ship's or an aircraft's
-#: standard-rate turn (3 deg/s) lies within 2 sigma.
+#: The estimated-rate turn's random walk (rad/s per sqrt(s), :class:`UnknownRateTurn`; None: no
+#: such model) and the std of its rate at the start (rad/s: 3 deg/s within 2 sigma).
 RATE_NOISE = None
 RATE_STD = math.radians(1.5)
-#: Mean time (s) the target holds one motion, a straight leg or a turn, before it changes to
-#: another (any other alike): 25 minutes, as a contact's legs last tens of minutes. A shorter
-#: stay refreshes the straight model from the turn models after a turn has ended, and with them
-#: their error (500 s measured 1.7-2.1x the batch fit at the final time on hoerst2010, 1,500 s
-#: 1.4x; docs/tracking.md, "the switches"). The Markov chain is in continuous time: its matrix
-#: for a step follows from the step's length (:class:`MarkovChain`).
+#: Mean time (s) the target holds one motion before it changes to any other alike: 25 minutes,
+#: as a contact's legs last tens of minutes (docs/tracking.md, "the switches").
 SOJOURN = 1500.0
 #: The multiple-model particle filter's default turn rates (deg/s, to the left and to the right)
-#: and mean stay (s): the bank and stay it was measured with (docs/tracking.md); the IMM's
-#: above were re-tuned for the IMM alone, and on the MM-PF smoother's test run they made the
-#: smoothed track worse than the filtered one.
+#: and mean stay (s), as it was measured (docs/tracking.md): the IMM's made its smoother worse.
 MMPF_TURN_RATES_DEG = (0.375, 0.75, 1.5, 3.0)
 MMPF_SOJOURN = 500.0
 #: The batch start's position quality (std over range) for a multiple-model filter: a range
@@ -69,24 +57,9 @@ START_RELATIVE_STD = 0.1
 class MarkovChain:
     """The models' switching: a per-step matrix, or a continuous-time chain of one mean stay.
 
-    The continuous chain leaves each model at rate ``1 / sojourn``, to each other model alike;
-    its matrix for a step of ``dt`` s is ``expm(G dt)`` of that rate matrix ``G``:
-    ``p_ii = 1/M + (1 - 1/M) exp(-M dt / ((M - 1) sojourn))``, the rest of the row shared
-    equally. So the chain does not depend on the data rate.
-
-    Parameters
-    ----------
-    count : int
-        Models ``M``.
-    transition : array_like, optional
-        ``(M, M)`` matrix per step (rows sum to 1; row: from, column: to); else the chain.
-    sojourn : float
-        Mean stay (s) in a model.
-
-    Raises
-    ------
-    ValueError
-        A matrix that is not stochastic, or a stay that is not > 0.
+    The chain leaves each of ``count`` models at rate ``1 / sojourn``, to each other alike: for a
+    step of ``dt`` s, ``p_ii = 1/M + (1 - 1/M) exp(-M dt / ((M - 1) sojourn))``, the rest of the
+    row shared equally, so the chain does not depend on the data rate.
     """
 
     def __init__(self, count: int, transition: ArrayLike | None,
@@ -119,7 +92,40 @@ class MarkovChain:
         return self._cache[1]
 
 
-class InteractingMultipleModel(TrackingFilter):
+class _MultipleModels(TrackingFilter):
+    """What the two multiple-model filters share: the Markov chain and the models' records."""
+
+    start_relative_std = START_RELATIVE_STD
+    start_by_likelihood = True  # judged by the batch start's covariance widened to its likelihood
+    chain: MarkovChain
+    models: list[NearlyConstantVelocity]
+    _mu0: Array
+    probability_history: list[list[float]]
+
+    @property
+    def transition(self) -> Array:
+        """The Markov matrix per step given, or the chain's for a 1-s step ``(M, M)``."""
+        return self.chain.matrix(1.0)
+
+    def _track(self, rec: Recorder) -> Track:
+        """Record the model probabilities, the models and the Markov matrix in ``extra``."""
+        track = super()._track(rec)
+        track.extra.model_probabilities = [list(p) for p in self.probability_history]
+        track.extra.models = [{"q": [float(v) for v in m.axes()[0]],
+                               "q_density": [float(v) for v in m.axes()[1]],
+                               "turn_rate": None if isinstance(m, UnknownRateTurn)
+                               else float(getattr(m, "turn_rate", 0.0)),
+                               **({"rate_noise": m.rate_noise}
+                                  if isinstance(m, UnknownRateTurn) else {}),
+                               "prior": float(p),
+                               "sojourn": None if self.chain.fixed is not None
+                               else self.chain.sojourn}
+                              for m, p in zip(self.models, self._mu0, strict=True)]
+        track.extra.transition = self.transition.tolist()
+        return track
+
+
+class InteractingMultipleModel(_MultipleModels):
     """Interacting multiple model filter of EKF, UKF or cubature components.
 
     Parameters
@@ -170,8 +176,6 @@ class InteractingMultipleModel(TrackingFilter):
     """
 
     name = "imm"
-    start_relative_std = START_RELATIVE_STD
-    start_by_likelihood = True  # judged by the batch start's covariance widened to its likelihood
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  component: str = "ekf", iterations: int = 1,
@@ -184,7 +188,6 @@ class InteractingMultipleModel(TrackingFilter):
                  q: ProcessNoise = 0.0, dynamics: NearlyConstantVelocity | None = None,
                  options: KindOptions | None = None,
                  nuisance: Mapping[str, float] | None = None) -> None:
-        check_component(component)
         if not (isinstance(rate_std, (int, float)) and math.isfinite(rate_std) and rate_std > 0):
             raise ValueError(f"rate_std must be a turn rate's std > 0 (rad/s); got {rate_std!r}")
         self.rate_noise, self.rate_std = rate_noise, float(rate_std)
@@ -196,23 +199,13 @@ class InteractingMultipleModel(TrackingFilter):
         super().__init__(mean, covariance, time, q=q, dynamics=dynamics, options=options,
                          nuisance=nuisance)
         self.models = model_bank(self.dynamics, extra, rates, turn_q, rate_noise)
-        if component != "ekf" and iterations != 1:
-            raise ValueError(f"iterations apply to EKF components; got {iterations} with "
-                             f"{component!r}")
-        self._unit: ExtendedKalmanFilter = component_filter(
-            self, component, mean, covariance,
-            **({"iterations": iterations} if component == "ekf" else {}))
+        self._unit = component_filter(self, component, iterations, mean, covariance)
         self.iterations = self._unit.iterations
         self.probability_history: list[list[float]] = []
         #: Each update's models and rows (with ``history=True``), for :func:`imm_smooth`.
         self.history = ModelHistory(self.models, self._unit, [],
                                     self.rate_std) if history else None
         self._switch = self.chain.matrix(0.0)
-
-    @property
-    def transition(self) -> Array:
-        """The Markov matrix per step given, or the chain's for a 1-s step ``(M, M)``."""
-        return self.chain.matrix(1.0)
 
     def _init_state(self, mean: Array, covariance: Array) -> None:
         count = self._mu0.shape[0]
@@ -298,13 +291,8 @@ class InteractingMultipleModel(TrackingFilter):
             self.history.steps.append(ModelStep(self.time, self._mu.copy(), self._m.copy(),
                                                 self._p.copy(), self._switch, group))
 
-    def _track(self, rec: Recorder) -> Track:
-        track = model_records(self, super()._track(rec))
-        track.extra.history = self.history
-        return track
 
-
-class MultipleModelParticleFilter(ParticleFilter):
+class MultipleModelParticleFilter(_MultipleModels, ParticleFilter):
     """Multiple-model particle filter: each particle carries a model of the IMM's Markov chain.
 
     At each predict every particle draws its next model from its row of the Markov matrix and
@@ -333,8 +321,6 @@ class MultipleModelParticleFilter(ParticleFilter):
     """
 
     name = "mmpf"
-    start_relative_std = START_RELATIVE_STD
-    start_by_likelihood = True  # judged by the batch start's covariance widened to its likelihood
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike, time: float = 0.0, *,
                  model_q: Sequence[float] = (), transition: ArrayLike | None = None,
@@ -358,11 +344,6 @@ class MultipleModelParticleFilter(ParticleFilter):
                          q=q, dynamics=dynamics, options=options, nuisance=nuisance)
         self.models = model_bank(self.dynamics, extra, rates, turn_q)
         self.probability_history: list[list[float]] = []
-
-    @property
-    def transition(self) -> Array:
-        """The Markov matrix per step given, or the chain's for a 1-s step ``(M, M)``."""
-        return self.chain.matrix(1.0)
 
     def _init_state(self, mean: Array, covariance: Array) -> None:
         super()._init_state(mean, covariance)
@@ -392,8 +373,7 @@ class MultipleModelParticleFilter(ParticleFilter):
                                  len(self.models) - 1)
         for j, model in enumerate(self.models):
             k = np.flatnonzero(self._label == j)
-            evals, evecs = np.linalg.eigh(symmetrise(model.noise(dt)))
-            root = evecs * np.sqrt(np.clip(evals, 0.0, None))
+            root = psd_root(model.noise(dt))
             self._x[:, k] = (model.transition(dt) @ self._x[:, k]
                              + root @ self.rng.standard_normal((root.shape[0], k.shape[0])))
         self._moments = None
@@ -414,9 +394,6 @@ class MultipleModelParticleFilter(ParticleFilter):
             self.history[-1] = LabelledStep(**vars(self.history[-1]), labels=labels,
                                             transition=self._switch)
         return info
-
-    def _track(self, rec: Recorder) -> Track:
-        return model_records(self, super()._track(rec))
 
 
 @dataclass(frozen=True)
@@ -561,23 +538,6 @@ def update_models(unit: ExtendedKalmanFilter, group: MeasurementGroup,
     return log_l, nis, dof
 
 
-def model_records(f: InteractingMultipleModel | MultipleModelParticleFilter, track: Track
-                  ) -> Track:
-    """Put the filter's model probabilities, models and Markov matrix in ``track.extra``."""
-    track.extra.model_probabilities = [list(p) for p in f.probability_history]
-    track.extra.models = [{"q": [float(v) for v in m.axes()[0]],
-                           "q_density": [float(v) for v in m.axes()[1]],
-                           "turn_rate": None if isinstance(m, UnknownRateTurn)
-                           else float(getattr(m, "turn_rate", 0.0)),
-                           **({"rate_noise": m.rate_noise} if isinstance(m, UnknownRateTurn)
-                              else {}),
-                           "prior": float(p),
-                           "sojourn": None if f.chain.fixed is not None
-                           else f.chain.sojourn} for m, p in zip(f.models, f._mu0, strict=True)]
-    track.extra.transition = f.transition.tolist()
-    return track
-
-
 def models_of(track: Track) -> list[NearlyConstantVelocity]:
     """Rebuild a multiple-model track's models from ``track.extra.models``."""
     dim = len(track.state_names) // 2
@@ -602,40 +562,13 @@ def _stationary(transition: Array) -> Array:
 
 
 def imm_smooth(track: Track) -> tuple[Array, Array, Array]:
-    """Smooth an IMM track: a backward IMM filter fused with the forward one at every update.
+    """Smooth an IMM track (its ``extra.history``): the smoothed means, covariances, model shares.
 
-    The backward filter runs the same models and component updates from the last update to
-    the first, started from the forward filter's last estimate with its covariance times
-    :data:`BACKWARD_INFLATE` (a weak prior that only linearises). From update ``k+1`` to ``k``
-    each model ``j`` moves back by its own dynamics, ``x_k = Phi_j^-1 (x_{k+1} - w_j)``, and
-    the models are mixed by the reverse chain ``P(i at k | j at k+1) = p_ij pi_i / pi_j``
-    (``pi`` the chain's stationary probabilities). At ``k`` each model's backward prediction
-    (the data after ``k``) and forward estimate (the data up to ``k``) are fused as two
-    independent Gaussians, ``K = P_f (P_f + P_b)^-1``, ``x = x_f + K (x_b - x_f)``,
-    ``P = P_f - K P_f`` (Fraser & Potter 1969), weighted by ``mu_f^i mu_b^i / pi_i`` times the
-    two estimates' agreement ``N(x_b^i; x_f^i, P_f^i + P_b^i)``, and the mixture's moments
-    given: the two-filter IMM smoother of Helmick, Blair & Hoffman (1995).
-
-    Parameters
-    ----------
-    track : Track
-        A track of :class:`InteractingMultipleModel` (its ``extra.history``).
-
-    Returns
-    -------
-    means, covariances, probabilities : ndarray
-        The smoothed ``(K, n)``, ``(K, n, n)`` and the models' ``(K, M)``.
-
-    Raises
-    ------
-    ValueError
-        The model history does not match the track's rows.
-
-    References
-    ----------
-    Helmick, Blair & Hoffman (1995), "Fixed-interval smoothing for Markovian switching
-    systems", IEEE Trans. Inf. Theory 41(6); Fraser & Potter (1969), IEEE Trans. Autom.
-    Control 14(4).
+    A backward IMM filter, started from the forward filter's last estimate with its covariance
+    times :data:`BACKWARD_INFLATE`, its models mixed by the reverse chain, fused with the forward
+    filter model by model at every update (docs/tracking.md, "The IMM smoother"): the two-filter
+    IMM smoother of Helmick, Blair & Hoffman (1995), IEEE Trans. Inf. Theory 41(6), each fusion
+    that of two independent Gaussians (Fraser & Potter 1969, IEEE Trans. Autom. Control 14(4)).
     """
     history: ModelHistory = track.extra.history
     models, count = history.models, len(history.models)
@@ -692,11 +625,7 @@ def _row_models(track: Track, k: int, inflate: float) -> tuple[Array, Array]:
 
 def _fuse(forward: ModelStep, means: Array, covs: Array, mu: Array, pi: Array, n: int
           ) -> tuple[Array, Array, Array]:
-    """Fuse each model's forward and backward Gaussians; weigh them by both and their overlap.
-
-    The overlap is that of the first ``n`` components (position and velocity), which every
-    model has; the mixture's moments are theirs.
-    """
+    """Fuse each model's two Gaussians, weighed by both and their overlap in the first ``n``."""
     total = forward.covariances + covs
     gain = np.swapaxes(np.linalg.solve(total, forward.covariances), -1, -2)
     d = means - forward.means

@@ -95,8 +95,8 @@ class MirrorReflectMixin:
             self._symmetric = False
         elif self._plane is None:
             self._plane = plane
-        if (self.reflect and self._symmetric and self._plane is not None
-                and self.dim == 3 and self._mean[2] < self._plane):
+        if self._symmetric and self._plane is not None and self.dim == 3 \
+                and self._mean[2] < self._plane:
             m = np.array([1.0, 1.0, -1.0, 1.0, 1.0, -1.0])
             mean = self._mean * m
             mean[2] += 2.0 * self._plane

@@ -1,16 +1,10 @@
 """The EKF in modified polar (2-D) and modified spherical (3-D) coordinates about the sensor.
 
-The state relative to the sensor is, in 2-D, ``[beta, beta_dot, r_dot / r, 1 / r]`` (Aidala &
-Hammel 1983, eq. 12) and, in 3-D, ``[beta, epsilon, omega, epsilon_dot, r_dot / r, 1 / r]``
-with ``omega = beta_dot cos(epsilon)`` (the modified spherical coordinates of Stallard 1991
-and Mallick et al. 2012, ordered as the 2-D state: angles, angle rates, range rate over
-range, inverse range).  Bearing ``beta`` clockwise from North, elevation ``epsilon`` above the
-horizontal (rad; rad/s; 1/s; 1/m).  The angles are states, and ``1 / r``, unobservable before
-the own ship manoeuvres, is decoupled from the rest.  With ``u`` the line of sight and
-``e_beta = d u / d beta / cos(epsilon)``, ``e_eps = d u / d epsilon`` its unit normals, the
-relative position is ``u / (1/r)`` and the relative velocity
-``(r_dot/r u + omega e_beta + epsilon_dot e_eps) / (1/r)``; the 2-D form is the 3-D one at
-``epsilon = epsilon_dot = 0``, and one code path serves both.
+The state relative to the sensor is ``[beta, beta_dot, r_dot / r, 1 / r]`` in 2-D (Aidala &
+Hammel 1983, eq. 12) and ``[beta, epsilon, omega, epsilon_dot, r_dot / r, 1 / r]``,
+``omega = beta_dot cos(epsilon)``, in 3-D (Stallard 1991; Mallick et al. 2012), bearing
+clockwise from North, elevation above the horizontal (rad; rad/s; 1/s; 1/m); the 2-D form is the
+3-D one at ``epsilon = epsilon_dot = 0`` (docs/tracking.md, "modified polar coordinates").
 
 References
 ----------
@@ -71,10 +65,7 @@ def _line_of_sight(b: ArrayLike, e: ArrayLike) -> tuple[Array, Array, Array]:
 
 
 def _msc_to_cartesian(msc: list[float], keep: list[int]) -> tuple[Array, Array]:
-    """Give rows/columns ``keep`` of the relative Cartesian state of ``msc`` and ``d rel / d msc``.
-
-    Plain floats: the filter's step calls it several times.
-    """
+    """Give rows/columns ``keep`` of the relative Cartesian state and ``d rel / d msc`` (floats)."""
     b, e, w, ed, g, rho = msc
     sb, cb, se, ce = math.sin(b), math.cos(b), math.sin(e), math.cos(e)
     r = 1.0 / rho
@@ -95,21 +86,7 @@ def _msc_to_cartesian(msc: list[float], keep: list[int]) -> tuple[Array, Array]:
 
 
 def from_modified_polar(mp: ArrayLike) -> tuple[Array, Array]:
-    """Give the relative Cartesian state of a modified polar (4,) or spherical (6,) state.
-
-    Parameters
-    ----------
-    mp : array_like
-        ``[beta, beta_dot, r_dot/r, 1/r]`` (2-D) or ``[beta, epsilon, omega, epsilon_dot,
-        r_dot/r, 1/r]`` (3-D; rad, rad/s, 1/s, 1/m).
-
-    Returns
-    -------
-    rel : numpy.ndarray
-        ``[x, y, vx, vy]`` or ``[x, y, z, vx, vy, vz]`` relative to the sensor (m, m/s).
-    jacobian : numpy.ndarray
-        ``d rel / d mp`` (analytic).
-    """
+    """Give the relative Cartesian state of a modified polar/spherical one, and ``d rel / d mp``."""
     values = np.asarray(mp, dtype=float).tolist()
     if len(values) == 6:
         return _msc_to_cartesian(values, _ALL)
@@ -118,18 +95,7 @@ def from_modified_polar(mp: ArrayLike) -> tuple[Array, Array]:
 
 
 def to_modified_polar(rel: ArrayLike) -> Array:
-    """Give the modified polar (2-D) or spherical (3-D) state of a relative Cartesian state.
-
-    Parameters
-    ----------
-    rel : array_like
-        ``[x, y, vx, vy]`` or ``[x, y, z, vx, vy, vz]`` relative to the sensor (m, m/s).
-
-    Returns
-    -------
-    numpy.ndarray
-        The state of :func:`from_modified_polar`.
-    """
+    """Give the modified polar (2-D) or spherical (3-D) state of a relative Cartesian state."""
     values = np.asarray(rel, dtype=float).tolist()
     flat = len(values) == 4
     x, y, z, vx, vy, vz = ((values[0], values[1], 0.0, values[2], values[3], 0.0) if flat
@@ -147,26 +113,10 @@ def to_modified_polar(rel: ArrayLike) -> Array:
 
 
 def prior_moments(prior: BearingPrior, first: FirstBearing, dim: int) -> tuple[Array, Array]:
-    """Give the mean and covariance of the bearing prior in modified polar/spherical terms.
+    """Give the bearing prior's mean and covariance in these coordinates, by quadrature.
 
-    By quadrature: Gauss-Legendre over the log-uniform range and the uniform height,
-    Gauss-Hermite over the bearing's normal error; given the position, the rates are linear in
-    the relative velocity (``[r_dot, omega, epsilon_dot] / r = [u, e_beta, e_eps]^T v / r``), so
-    their conditional moments are exact.
-
-    Parameters
-    ----------
-    prior : BearingPrior
-        Range, speed (and height) intervals.
-    first : FirstBearing
-        The first bearing, about whose sensor the state is held.
-    dim : int
-        2 or 3.
-
-    Returns
-    -------
-    mean, covariance : numpy.ndarray
-        ``(2 dim,)`` and ``(2 dim, 2 dim)``.
+    Gauss-Legendre over the log-uniform range and the uniform height, Gauss-Hermite over the
+    bearing's error; the rates' moments given the position are exact (linear in the velocity).
     """
     leg = _nodes("legendre", _NODES[0])
     log_r = math.log(prior.range_min) + 0.5 * (leg[0] + 1.0) * math.log(prior.range_max
@@ -204,11 +154,9 @@ class ModifiedPolarEKF(TrackingFilter):
     """EKF in modified polar (2-D) or modified spherical (3-D) coordinates about the sensor.
 
     The estimate is held relative to a reference (the last update's sensor, moving at its
-    velocity); the prediction (constant velocity of target and reference: the relative state
-    moves by ``Phi``), and the move of the reference to each update's sensor (the own ship's
-    acceleration since the last update), are exact maps through Cartesian coordinates, the
-    covariance carried by their Jacobians.  :attr:`state` and :attr:`covariance` are
-    Cartesian (the covariance through the transform's Jacobian).
+    velocity); the prediction and the move of the reference to each update's sensor are exact
+    maps through Cartesian coordinates, the covariance carried by their Jacobians.
+    :attr:`state` and :attr:`covariance` are Cartesian.
 
     Parameters
     ----------

@@ -21,10 +21,10 @@ from ..core.arrays import Array
 from ..core.linalg import nearest_psd, safe_cholesky, solve_spd, symmetrise
 from ..motion.dynamics import NearlyConstantVelocity
 from ..observation.groups import MeasurementGroup
-from .base import FilterSettings, KindOptions, ProcessNoise, TrackingFilter
+from .base import FilterSettings, KindOptions, ProcessNoise, TrackingFilter, whole_number
 from .bearing_prior import BearingPrior, FirstBearing
 from .ekf import LOG_2PI
-from .track import Recorder, Track, UpdateInfo
+from .track import UpdateInfo
 
 #: Log-weights this far below the largest are zero weights (:meth:`ParticleFilter._normalise`).
 LOG_NEGLIGIBLE = -575.0
@@ -123,15 +123,12 @@ class ParticleFilter(TrackingFilter):
         self._start_prior = bearing_start
         #: The weighted clouds after each update (with ``history=True``), for the smoother.
         self.history: list[ParticleStep] | None = [] if history else None
-        if isinstance(particles, bool) or not isinstance(particles, (int, np.integer)) \
-                or particles < 2:
-            raise ValueError(f"particles must be a whole number >= 2; got {particles!r}")
+        self.n_particles = whole_number(particles, "particles", 2)
         if not (0.0 < float(resample_threshold) <= 1.0):
             raise ValueError("resample_threshold must be in (0, 1] (a fraction of the "
                              f"particle count); got {resample_threshold}")
         if not (math.isfinite(bandwidth) and bandwidth > 0):
             raise ValueError(f"bandwidth must be > 0; got {bandwidth}")
-        self.n_particles = int(particles)
         self.rng = np.random.default_rng(rng)
         self.resample_threshold = float(resample_threshold)
         self.regularise = bool(regularise)
@@ -176,26 +173,22 @@ class ParticleFilter(TrackingFilter):
 
     # -- state --------------------------------------------------------------------------------
     def _init_state(self, mean: Array, covariance: Array) -> None:
-        n = mean.shape[0]
+        n, n_p = mean.shape[0], self.n_particles
         if self._start_prior is not None:
             prior, first = self._start_prior
-            x = np.ascontiguousarray(prior.sample(first, self.n_particles, self.rng,
-                                                  n // 2).T)
+            x = prior.sample(first, n_p, self.rng, n // 2).T
         else:
-            chol = safe_cholesky(covariance)
-            x = chol @ self.rng.standard_normal((n, self.n_particles))
+            x = safe_cholesky(covariance) @ self.rng.standard_normal((n, n_p))
             x += mean[:, None]
         self._x = np.ascontiguousarray(x)  # (n, N): one row per state component
+        self._w = np.full(n_p, 1.0 / n_p)
+        self._logw = np.full(n_p, -math.log(n_p))
         if self.history is not None:
-            self.history.append(ParticleStep(self.time, self._x.copy(),
-                                             np.full(self.n_particles, 1.0 / self.n_particles)))
-        self._w = np.full(self.n_particles, 1.0 / self.n_particles)
-        self._logw = np.full(self.n_particles, -math.log(self.n_particles))
+            self.history.append(ParticleStep(self.time, self._x.copy(), self._w.copy()))
         self._uniform = True
         self._moments: tuple[Array, Array] | None = None
         # Work arrays, reused at every step: fresh ones for every operation cost more in
         # memory traffic than the arithmetic on 10^4 particles.
-        n_p = self.n_particles
         self._work = np.empty((3, n_p))
         self._w_spare = np.empty(n_p)
         self._logw_spare = np.empty(n_p)
@@ -263,9 +256,7 @@ class ParticleFilter(TrackingFilter):
             x = self.dynamics.transition(dt) @ x
             q = self.dynamics.noise(dt)
             if np.any(q != 0):
-                evals, evecs = np.linalg.eigh(symmetrise(q))
-                root = evecs * np.sqrt(np.clip(evals, 0.0, None))
-                x += root @ self.rng.standard_normal((x.shape[0], self.n_particles))
+                x += psd_root(q) @ self.rng.standard_normal((x.shape[0], self.n_particles))
             self._x = np.ascontiguousarray(x)
         self._moments = None
 
@@ -379,26 +370,18 @@ class ParticleFilter(TrackingFilter):
     def _weigh(self, loglik: Array, nu: Array, r: Array) -> UpdateInfo:
         """Make the general update from per-particle log-likelihoods (N,) and residuals (N, m)."""
         bad = ~np.isfinite(loglik)
-        finite = ~bad
+        wp = self._w  # the NIS from the predicted measurement moments (weights before)
         if bad.any():
             loglik = np.where(bad, -np.inf, loglik)
-        # NIS from the predicted measurement moments (weights before the update).
-        wp = self._w
-        if bad.any():
-            wp = np.where(finite, wp, 0.0)
+            wp = np.where(bad, 0.0, wp)
             wp = wp / max(float(np.sum(wp)), 1e-300)
-            nu = np.where(finite[:, None], nu, 0.0)
+            nu = np.where(bad[:, None], 0.0, nu)
         nu_bar = nu.T @ wp
         dev = nu - nu_bar
         s_pred = symmetrise((dev.T * wp) @ dev + r)
         sol, _ = solve_spd(s_pred, nu_bar)
         return self._normalise(np.array(loglik, dtype=float), 0.0, float(nu_bar @ sol),
                                int(nu.shape[1]))
-
-    def _track(self, rec: Recorder) -> Track:
-        track = super()._track(rec)
-        track.extra.history = self.history
-        return track
 
     # -- resampling and regularisation -------------------------------------------------------
     def _carry(self, idx: NDArray[np.int64]) -> None:
@@ -462,5 +445,10 @@ def _kernel_factor(cov: Array) -> Array:
     try:
         return cast(Array, np.linalg.cholesky(cov))
     except np.linalg.LinAlgError:
-        evals, evecs = np.linalg.eigh(nearest_psd(cov))
-        return cast(Array, evecs * np.sqrt(np.clip(evals, 0.0, None)))
+        return psd_root(nearest_psd(cov))
+
+
+def psd_root(q: Array) -> Array:
+    """Give a square root ``L`` (``L L^T = q``) of a symmetric PSD matrix, by its eigenvectors."""
+    evals, evecs = np.linalg.eigh(symmetrise(q))
+    return cast(Array, evecs * np.sqrt(np.clip(evals, 0.0, None)))

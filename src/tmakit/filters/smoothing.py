@@ -1,18 +1,21 @@
 """Smoothers: every state of a track conditioned on the data after it too.
 
-:func:`smooth` runs the Rauch-Tung-Striebel smoother on a Gaussian track (on a Gaussian sum that
-kept its history, each component along its lineage, :mod:`tmakit.filters.sum_smoothing`; on
-one that did not, on its moments), or with ``lag=N`` the fixed-lag smoother; on a particle track
-that kept its clouds, forward filtering-backward simulation with the filter's own move as
-transition density (the model index part of the state for the multiple-model particle filter);
-on an IMM track, a backward IMM filter fused with the forward one
-(:func:`tmakit.filters.imm.imm_smooth`).
+:func:`smooth` runs the Rauch-Tung-Striebel smoother on a Gaussian track, or with ``lag=N`` the
+fixed-lag smoother; on a Gaussian sum that kept its history, the same along each final
+component's lineage (docs/tracking.md, "Smoothers": given its hypothesis a component is
+linear-Gaussian, and its final weight is the hypothesis' probability, Alspach & Sorenson 1972,
+eq. 20); on a particle track that kept its clouds, forward filtering-backward simulation with the
+filter's own move as transition density (the model index part of the state for the
+multiple-model particle filter); on an IMM track, a backward IMM filter fused with the forward
+one (:func:`tmakit.filters.imm.imm_smooth`).
 
 References
 ----------
 Rauch, Tung & Striebel (1965); Särkkä (2013), *Bayesian Filtering and Smoothing*, Theorem 8.2
-and §9; Godsill, Doucet & West (2004), "Monte Carlo smoothing for nonlinear time series", JASA
-99(465), Algorithm 1; Helmick, Blair & Hoffman (1995), IEEE Trans. Inf. Theory 41(6).
+and §9; Alspach & Sorenson (1972), IEEE Trans. Autom. Control 17(4); Godsill, Doucet & West
+(2004), "Monte Carlo smoothing for nonlinear time series", JASA 99(465), Algorithm 1; Helmick,
+Blair & Hoffman (1995), IEEE Trans. Inf. Theory 41(6); the two-filter Gaussian-sum smoother of
+Kitagawa (1994), Ann. Inst. Statist. Math. 46(4), is the alternative not taken (docs/tracking.md).
 """
 
 from __future__ import annotations
@@ -27,9 +30,10 @@ import numpy as np
 
 from ..core.arrays import Array, IntArray
 from ..motion.dynamics import NearlyConstantVelocity
-from .gaussian_sum import SumStep
+from .base import whole_number
+from .gaussian_sum import SumStep, mixture_moments
+from .general import DynamicsCache
 from .imm import ModelHistory, imm_smooth, models_of
-from .sum_smoothing import smooth_sum
 from .track import Track
 
 __all__ = ["smooth"]
@@ -42,29 +46,47 @@ def _dynamics_of(track: Track) -> NearlyConstantVelocity:
     return NearlyConstantVelocity(dim, q, qd)
 
 
-def _backward(times: Array, states: Array, covs: Array, dynamics: NearlyConstantVelocity,
-              start: int, stop: int) -> tuple[Array, Array]:
-    """Run the RTS pass from update ``stop`` (its filtered state) back to ``start``."""
-    xs, ps = states[stop].copy(), covs[stop].copy()
-    out_x = np.empty((stop - start + 1, states.shape[1]))
-    out_p = np.empty((stop - start + 1, states.shape[1], states.shape[1]))
-    out_x[-1], out_p[-1] = xs, ps
+def _lineage_back(steps: list[SumStep], dynamics: DynamicsCache, start: int,
+                  stop: int) -> list[SumStep]:
+    """Run the RTS pass on the sum of step ``stop`` back along its lineage to ``start``."""
+    last = steps[stop]
+    xs, ps = last.means.copy(), last.covariances.copy()
+    idx: IntArray = np.arange(last.weights.shape[0])
+    out = [SumStep(last.time, last.weights, xs, ps, idx)]
     for k in range(stop - 1, start - 1, -1):
-        dt = float(times[k + 1] - times[k])
-        phi = dynamics.transition(dt)
-        x, p = states[k], covs[k]
-        pred = phi @ p @ phi.T + dynamics.noise(dt)
-        pred = 0.5 * (pred + pred.T)
-        # C = P Phi^T pred^-1, by a solve with the symmetric pred (pseudo-inverse if singular)
-        try:
-            gain = np.linalg.solve(pred, phi @ p).T
+        parent = steps[k + 1].origins[idx]
+        if np.any(parent < 0):
+            raise ValueError("the Gaussian sum's history has no lineage at step "
+                             f"{k + 1}; it cannot be smoothed")
+        step = steps[k]
+        dt = float(steps[k + 1].time - step.time)
+        phi, _, q = dynamics.get(dt)
+        m, p = step.means[parent], step.covariances[parent]
+        pred = phi @ p @ phi.T + q
+        pred = 0.5 * (pred + np.swapaxes(pred, -1, -2))
+        try:  # the gain P Phi^T pred^-1 (pseudo-inverse if pred is singular)
+            gain = np.swapaxes(np.linalg.solve(pred, phi @ p), -1, -2)
         except np.linalg.LinAlgError:
-            gain = (np.linalg.pinv(pred) @ phi @ p).T
-        xs = x + gain @ (xs - phi @ x)
-        ps = p + gain @ (ps - pred) @ gain.T
-        ps = 0.5 * (ps + ps.T)
-        out_x[k - start], out_p[k - start] = xs, ps
-    return out_x, out_p
+            gain = np.swapaxes(np.linalg.pinv(pred) @ phi @ p, -1, -2)
+        xs = m + np.einsum("cij,cj->ci", gain, xs - m @ phi.T)
+        ps = p + gain @ (ps - pred) @ np.swapaxes(gain, -1, -2)
+        ps = 0.5 * (ps + np.swapaxes(ps, -1, -2))
+        idx = parent
+        out.append(SumStep(step.time, last.weights, xs, ps, parent))
+    return out[::-1]
+
+
+def smooth_sum(steps: list[SumStep], dynamics: NearlyConstantVelocity,
+               lag: int | None = None) -> tuple[Array, Array, list[SumStep]]:
+    """Smooth a Gaussian sum's history (fixed-lag with ``lag``): moments and sums per step."""
+    k_all, cache = len(steps), DynamicsCache(dynamics)
+    if lag is None or lag >= k_all - 1:
+        sums = _lineage_back(steps, cache, 0, k_all - 1)
+    else:
+        sums = [_lineage_back(steps, cache, k, min(k + int(lag), k_all - 1))[0]
+                for k in range(k_all)]
+    moments = [mixture_moments(s.weights, s.means, s.covariances) for s in sums]
+    return (np.array([m for m, _ in moments]), np.array([p for _, p in moments]), sums)
 
 
 def _history_of(track: Track) -> list | None:
@@ -83,13 +105,9 @@ def _history_of(track: Track) -> list | None:
 def _backward_simulation(history: list, models: list[NearlyConstantVelocity],
                          trajectories: int, rng: np.random.Generator
                          ) -> tuple[Array, Array, Array | None]:
-    """Draw paths backwards through the clouds (FFBSi); give their means and covariances.
+    """Draw paths backwards through the clouds (FFBSi); give their moments and model shares.
 
-    With a multiple-model filter's clouds (each particle's model in ``labels``), the model is
-    part of the state: the transition density of a particle ``(x, i)`` to a path's ``(x', j)``
-    is ``p_ij N(x'; Phi_j x, Q_j)``, and the paths' model shares are given too. Per update, the
-    paths of each model draw their predecessors at once in one compiled pass over paths x
-    particles (:func:`_draw_predecessors`).
+    A multiple-model filter's ``labels`` make the model part of the state (docs/tracking.md).
     """
     k_all = len(history)
     n = history[0].particles.shape[0]
@@ -156,11 +174,9 @@ _NEGLIGIBLE = 60.0
 
 def _draw_predecessors(a: Array, prior: Array, b: Array, u: Array,
                        out: IntArray) -> None:  # pragma: no cover - compiled
-    """Draw each path's predecessor: particle i with probability ~ exp(prior_i - |a_i - b_m|^2/2).
+    """Draw into ``out[m]`` path ``b[m]``'s predecessor, by its cumulative weights at ``u[m]``.
 
-    ``a`` (n, N) the whitened predicted particles, ``prior`` (N,) their log weights (with the
-    switch's), ``b`` (M, n) the whitened paths, ``u`` (M,) uniform draws; the inverse of each
-    path's cumulative weights at ``u`` into ``out`` (M,).
+    Particle ``i`` has the weight ``exp(prior_i - |a_i - b_m|^2 / 2)`` (whitened ``a``, ``b``).
     """
     dim, n_p = a.shape
     score = np.empty(n_p)
@@ -198,21 +214,6 @@ def _compiled_draw() -> Callable[..., None]:
 
     return cast(Callable[..., None],
                 numba.njit(cache=True, nogil=True, error_model="numpy")(_draw_predecessors))
-
-
-def _rts(track: Track, dynamics: NearlyConstantVelocity | None, lag: int | None
-         ) -> tuple[Array, Array, str]:
-    """Run the RTS smoother on a Gaussian track (fixed-lag with ``lag``)."""
-    dyn = _dynamics_of(track) if dynamics is None else dynamics
-    times, states, covs, n = track.times, track.states, track.covariances, len(track)
-    if lag is None:
-        xs, ps = _backward(times, states, covs, dyn, 0, n - 1)
-        return xs, ps, "rts"
-    xs, ps = np.empty_like(states), np.empty_like(covs)
-    for k in range(n):
-        x, p = _backward(times, states, covs, dyn, k, min(k + int(lag), n - 1))
-        xs[k], ps[k] = x[0], p[0]
-    return xs, ps, f"fixed-lag {int(lag)}"
 
 
 def smooth(track: Track, *, lag: int | None = None,
@@ -255,43 +256,43 @@ def smooth(track: Track, *, lag: int | None = None,
     ----------
     The IMM's: Helmick, Blair & Hoffman (1995), :func:`~tmakit.filters.imm.imm_smooth`.
     """
-    if lag is not None and (isinstance(lag, bool) or int(lag) != lag or lag < 0):
-        raise ValueError(f"lag must be a whole number of updates >= 0; got {lag!r}")
+    lag = None if lag is None else whole_number(lag, "lag", 0, " of updates")
     if len(track) == 0:
         return track
     multiple = track.extra.model_probabilities is not None
-    probabilities = None
+    probabilities = sums = None
     imm = isinstance(track.extra.history, ModelHistory)
     history = None if imm else _history_of(track)
-    sums = None
     summed = history is not None and isinstance(history[0], SumStep)
     if lag is not None and (imm or (history is not None and not summed)):
         raise ValueError(f"the {'IMM' if imm else 'particle'} smoother is fixed-interval; lag "
                          "applies to the Gaussian filters (ekf, ukf, ckf, gsf)")
-    if summed and history is not None:
-        xs, ps, sums = smooth_sum(history, _dynamics_of(track) if dynamics is None
-                                  else dynamics, lag)
-        label = "gaussian-sum " + ("rts" if lag is None else f"fixed-lag {int(lag)}")
-    elif imm:
+    dynamics = _dynamics_of(track) if dynamics is None else dynamics
+    if imm:
         xs, ps, probabilities = imm_smooth(track)
         label = "imm two-filter"
-    elif history is not None:
+    elif history is not None and not summed:
         if trajectories < 2:
             raise ValueError(f"trajectories must be >= 2; got {trajectories}")
-        models = models_of(track) if multiple else [
-            _dynamics_of(track) if dynamics is None else dynamics]
+        models = models_of(track) if multiple else [dynamics]
         xs, ps, probabilities = _backward_simulation(history, models, int(trajectories),
                                                      np.random.default_rng(rng))
         label = f"ffbsi {int(trajectories)}"
     elif multiple:
         raise ValueError(f"the {track.filter_name} filter's track kept no history: run it "
                          "with history=True (settings={'history': True}) to smooth it")
-    else:
-        xs, ps, label = _rts(track, dynamics, lag)
+    else:  # RTS along each lineage of a sum's history, or of the track as a one-term sum
+        one, zero = np.ones(1), np.zeros(1, dtype=np.int64)
+        steps = history if history is not None else [
+            SumStep(float(t), one, x[None], p[None], zero)
+            for t, x, p in zip(track.times, track.states, track.covariances, strict=True)]
+        xs, ps, kept = smooth_sum(steps, dynamics, lag)
+        sums = kept if summed else None
+        label = ("gaussian-sum " if summed else "") + (
+            "rts" if lag is None else f"fixed-lag {int(lag)}")
     extra = replace(track.extra, smoothed=None, history=sums,
                     options={**track.extra.options, "smoother": label},
                     model_probabilities=None if probabilities is None
                     else probabilities.tolist())
     return Track(track.filter_name, track.state_names, track.times.copy(), xs, ps,
-                 track.nis.copy(),
-                 track.dof.copy(), track.log_likelihood.copy(), extra)
+                 track.nis.copy(), track.dof.copy(), track.log_likelihood.copy(), extra)

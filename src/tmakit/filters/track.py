@@ -91,23 +91,7 @@ class TrackExtras:
     transition: list[list[float]] | None = None
 
     def __getitem__(self, key: str) -> Any:
-        """Give field ``key``.
-
-        Parameters
-        ----------
-        key : str
-            A field name.
-
-        Returns
-        -------
-        object
-            Its value.
-
-        Raises
-        ------
-        KeyError
-            If ``key`` is not a field.
-        """
+        """Give field ``key`` (KeyError if it is not a field)."""
         if key not in self.__dataclass_fields__:
             raise KeyError(key)
         return getattr(self, key)
@@ -125,7 +109,6 @@ class TrackExtras:
         Returns
         -------
         object
-            The value or ``default``.
         """
         value = getattr(self, key, None) if key in self.__dataclass_fields__ else None
         return default if value is None else value
@@ -217,7 +200,6 @@ class Track:
         Returns
         -------
         numpy.ndarray
-            ``states - truth``.
         """
         return cast(Array, self.states - np.asarray(truth, dtype=float))
 
@@ -227,13 +209,13 @@ class Track:
         Parameters
         ----------
         truth : array_like
-            True states ``(K, n)`` at :attr:`times` (m, m/s).
+            As for :meth:`errors`.
 
         Returns
         -------
         numpy.ndarray
-            NEES per update; ``inf`` where a singular covariance (a collapsed particle cloud) says
-            the error is impossible.
+            ``inf`` where a singular covariance (a collapsed particle cloud) says the error is
+            impossible.
         """
         err = self.errors(truth)
         try:
@@ -274,20 +256,14 @@ class Track:
 
         Parameters
         ----------
-        meas : MeasurementSet, optional
-            The measurements tracked: ENU and clock-time origins, the sensor's track.
+        meas, sensor, level
+            As for :meth:`tmakit.EstimateResult.answer`.
         index : int
             The update (default the last).
-        sensor : str, optional
-            Sensor for range and bearing; default the sensor of the last measurement.
-        level : float
-            Probability inside the position ellipse (default 0.95).
 
         Returns
         -------
         Answer
-            Position, course, speed, range and bearing at the update's time, each with its std,
-            and the position ellipse.
         """
         return track_answer(self, meas, index, sensor, level)
 
@@ -300,16 +276,12 @@ class Track:
             ``time`` (s), each state (m, m/s) and its ``std_*``, the covariance's upper triangle
             (``cov_x_y``, ...), ``nis``, ``dof`` and ``log_likelihood`` (nats).
         """
+        names, std, n = self.state_names, self.std, len(self.state_names)
         cols: dict[str, Array] = {"time": self.times}
-        n = len(self.state_names)
-        for i, name in enumerate(self.state_names):
-            cols[name] = self.states[:, i]
-        for i, name in enumerate(self.state_names):
-            cols[f"std_{name}"] = self.std[:, i]
-        for i in range(n):
-            for j in range(i, n):
-                cols[f"cov_{self.state_names[i]}_{self.state_names[j]}"] = \
-                    self.covariances[:, i, j]
+        cols.update({name: self.states[:, i] for i, name in enumerate(names)})
+        cols.update({f"std_{name}": std[:, i] for i, name in enumerate(names)})
+        cols.update({f"cov_{names[i]}_{names[j]}": self.covariances[:, i, j]
+                     for i in range(n) for j in range(i, n)})
         cols["nis"] = self.nis
         cols["dof"] = self.dof.astype(float)
         cols["log_likelihood"] = self.log_likelihood

@@ -49,7 +49,6 @@ class TrackingError(ValueError):
         Returns
         -------
         str
-            The message.
         """
         words = {**self.spellings, **dict(names or {})}
 
@@ -59,7 +58,7 @@ class TrackingError(ValueError):
         return _PLACEHOLDER.sub(spell, self.template)
 
     def extended(self, text: str) -> TrackingError:
-        """Return the same error with ``text`` appended to its message.
+        """Return a copy of this error (of its class) with ``text`` appended to its message.
 
         Parameters
         ----------
@@ -69,7 +68,6 @@ class TrackingError(ValueError):
         Returns
         -------
         TrackingError
-            A copy of this error, of the same class, with the longer message.
         """
         out = type(self).__new__(type(self))
         out.__dict__.update(self.__dict__)

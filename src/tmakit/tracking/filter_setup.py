@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike
 from ..core.arrays import Array
 from ..data import MeasurementSet
 from ..filters import FILTERS, NearlyConstantVelocity, TrackingFilter, state_names
+from ..filters.base import KindOptions
 from ..motion import motion_from_name
 from .errors import TrackingError
 
@@ -25,8 +26,6 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["FilterSetup", "filter_class", "filter_dim", "noise_density", "process_noise",
            "random_filters", "state_vector"]
 
-Options = Mapping[str, Mapping[str, object]]
-
 
 def filter_dim(meas: MeasurementSet, dim: int | None = None) -> int:
     """Return the filter's spatial dimension.
@@ -36,7 +35,7 @@ def filter_dim(meas: MeasurementSet, dim: int | None = None) -> int:
     meas : MeasurementSet
         The measurements to track.
     dim : int, optional
-        2 or 3 to choose it.
+        2 or 3.
 
     Returns
     -------
@@ -47,7 +46,7 @@ def filter_dim(meas: MeasurementSet, dim: int | None = None) -> int:
     Raises
     ------
     TrackingError
-        ``dim`` is neither 2 nor 3 (parameter ``dim``).
+        ``dim`` is neither 2 nor 3.
     """
     if dim is not None:
         if dim not in (2, 3):
@@ -106,12 +105,11 @@ def process_noise(q: float | ArrayLike, dim: int) -> tuple[float, ...]:
     Returns
     -------
     tuple of float
-        ``dim`` values (m/s^2), finite and >= 0.
 
     Raises
     ------
     TrackingError
-        Text, the wrong number of values, or a negative or non-finite one (parameter ``q``).
+        Text, the wrong number of values, or one negative, non-finite or above 1000 g.
     """
     return _per_axis(q, dim, "q", "m/s^2", f" ({'qx,qy' if dim == 2 else 'qx,qy,qz'})",
                      MAX_ACCELERATION, "process noise must be an acceleration std >= 0 and at "
@@ -124,20 +122,18 @@ def noise_density(q_density: float | ArrayLike, dim: int) -> tuple[float, ...]:
     Parameters
     ----------
     q_density : float or array_like
-        One density (m^2/s^3) for every axis, or ``dim`` of them
-        (:func:`tmakit.motion.dynamics.process_noise`).
+        One density (m^2/s^3) for every axis, or ``dim`` of them.
     dim : int
-        The track's spatial dimension, 2 or 3.
+        2 or 3.
 
     Returns
     -------
     tuple of float
-        ``dim`` values (m^2/s^3), finite and >= 0.
 
     Raises
     ------
     TrackingError
-        Text, the wrong number of values, or a negative or non-finite one (parameter ``q_density``).
+        As :func:`process_noise`'s.
     """
     return _per_axis(q_density, dim, "q_density", "m^2/s^3", "", MAX_ACCELERATION**2,
                      "a white-noise acceleration density must be >= 0 and at most "
@@ -177,7 +173,6 @@ def filter_class(name: str) -> type[TrackingFilter]:
     Returns
     -------
     type
-        The :class:`~tmakit.filters.TrackingFilter` subclass.
 
     Raises
     ------
@@ -192,12 +187,11 @@ def filter_class(name: str) -> type[TrackingFilter]:
 
 
 def random_filters() -> list[str]:
-    """Names of the registered filters that draw random numbers.
+    """Names of the registered filters that draw random numbers (take ``rng``), sorted.
 
     Returns
     -------
     list of str
-        The names (sorted) of the filters whose constructor takes ``rng``.
     """
     return [n for n, c in sorted(FILTERS.items()) if c.takes_rng]
 
@@ -250,26 +244,14 @@ class FilterSetup:
     @classmethod
     def create(cls, filter: str, dim: int, q: float | ArrayLike = 0.0,
                particles: int | None = None, rng: np.random.Generator | int | None = None,
-               options: Options | None = None, q_density: float | ArrayLike = 0.0,
+               options: KindOptions | None = None, q_density: float | ArrayLike = 0.0,
                settings: Mapping[str, object] | None = None) -> FilterSetup:
         """Check and collect the settings of a filter by name.
 
         Parameters
         ----------
-        filter : str
-            A name of :data:`tmakit.filters.FILTERS`.
-        dim : int
-            2 or 3.
-        q, q_density : float or array_like
-            See :func:`process_noise` (m/s^2) and :func:`noise_density` (m^2/s^3).
-        particles : int, optional
-            Particle count, for particle filters only.
-        rng : numpy.random.Generator or int, optional
-            Generator or seed, for the filters that draw random numbers.
-        options : mapping, optional
-            Per-kind measurement-model options.
-        settings : mapping, optional
-            Further constructor arguments of the filter (``component``, ``alpha``, ...).
+        filter, dim, q, particles, rng, options, q_density, settings
+            As for :func:`tmakit.track` (``filter`` its ``tracker``; ``dim`` 2 or 3).
 
         Returns
         -------
@@ -310,12 +292,8 @@ class FilterSetup:
 
         Parameters
         ----------
-        mean, covariance : ndarray
-            Prior mean ``(2 dim,)`` (m, m/s) and covariance ``(2 dim, 2 dim)``.
-        time : float
-            Prior time (s).
-        nuisance : mapping of str to float, optional
-            Known nuisance values (Hz, dBW, ...).
+        mean, covariance, time, nuisance
+            As for :class:`~tmakit.filters.TrackingFilter`.
 
         Returns
         -------
@@ -326,16 +304,12 @@ class FilterSetup:
 
     def from_first_bearing(self, prior: BearingPrior, first: FirstBearing,
                            nuisance: Mapping[str, float] | None) -> TrackingFilter:
-        """Start a filter at the first bearing (:meth:`TrackingFilter.from_first_bearing`).
+        """Start a filter at the first bearing.
 
         Parameters
         ----------
-        prior : BearingPrior
-            Range, speed (and height) intervals.
-        first : FirstBearing
-            The first bearing.
-        nuisance : mapping of str to float, optional
-            Known nuisance values (Hz, dBW, ...).
+        prior, first, nuisance
+            As for :meth:`TrackingFilter.from_first_bearing <tmakit.filters.TrackingFilter>`.
 
         Returns
         -------
@@ -349,10 +323,9 @@ class FilterSetup:
 
         Parameters
         ----------
-        estimate : EstimateResult
-            The batch estimate.
-        time : float
-            The time the filter starts at (s).
+        estimate, time
+            As ``result`` and ``time`` of :meth:`TrackingFilter.from_estimate
+            <tmakit.filters.TrackingFilter>`.
 
         Returns
         -------

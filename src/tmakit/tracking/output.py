@@ -53,12 +53,9 @@ def track_dict(tr: Track, *, sums: bool = False) -> dict[str, object]:
     tr : Track
         A track (from :func:`tmakit.track` or a filter's ``run``).
     sums : bool, optional
-        Add a Gaussian-sum track's ``sums``: per row, the filtered sum's ``weights`` (M,),
-        ``means`` (M, n) (m, m/s) and ``covariances`` (M, n, n), M the components held then;
-        and, if the track was smoothed, ``smoothed_sums``, the smoothed sum per row in the same
-        shape (the final sum's components and weights; their moments are ``smoothed`` and
-        ``smoothed_covariance``). The track must have kept its sums
-        (``settings={"history": True}``).
+        Add a Gaussian-sum track's filtered sum per row (``weights`` (M,), ``means`` (M, n),
+        ``covariances`` (M, n, n)) and, if smoothed, the smoothed sums; the track must have kept
+        them (``settings={"history": True}``; docs/tracking.md).
 
     Returns
     -------
@@ -121,7 +118,6 @@ def track_table(tr: Track) -> TrackTable:
     Parameters
     ----------
     tr : Track
-        The track.
 
     Returns
     -------

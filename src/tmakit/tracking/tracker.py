@@ -149,17 +149,15 @@ def track(meas: MeasurementSet, tracker: str = "ekf", q: float | ArrayLike = 0.0
 
 
 def start_record(tr: Track) -> StartRecord | None:
-    """How a track from :func:`track` started.
+    """How a track from :func:`track` started (``None`` for a track made otherwise).
 
     Parameters
     ----------
     tr : Track
-        A track from :func:`track`.
 
     Returns
     -------
     PriorStart or BatchStart or BearingStart or None
-        The typed start record; ``None`` for a track that does not say (made otherwise).
     """
     record = tr.extra.start_record
     return record if isinstance(record, PriorStart | BatchStart | BearingStart) else None
