@@ -55,7 +55,7 @@ def information_of(problem: VarProProblem, ev: Evaluation, run: int,
     """Give the Fisher information ``J' R^-1 J`` at run ``run``'s evaluated point, if it has it."""
     if problem.eliminates:
         return None
-    if known is not None and _ALL(np.isfinite(known[run]), axis=None):
+    if known is not None and _ALL(np.isfinite(known[run]), None):  # (axis=None: all)
         return np.array(known[run], dtype=float)
     if ev.normal is not None:
         return np.array(ev.normal[0][run], dtype=float)
@@ -150,7 +150,9 @@ class GaussNewtonModel:
             return None
         w = np.maximum(evals, 1e-12 * float(evals[-1]))  # floored as in :meth:`at`
         vg = (grad / scale).dot(v)
-        small = all((np.abs(grad) <= gtol * math.sqrt(2.0 * cost) * scale).tolist())
+        bound = gtol * math.sqrt(2.0 * cost)  # (p products in floats: fewer calls)
+        small = all(abs(g) <= bound * s for g, s in zip(grad.tolist(), scale.tolist(),
+                                                        strict=True))
         return cls(w[None], v[None], vg[None], scale[None],
                    np.array([0.5 * vg.dot(vg / w)]), np.array([small]), jtj[None], evals[None])
 
