@@ -42,8 +42,8 @@ def _gram_by_products(j: Array) -> Array:
     n, p = j.shape[-2:]
     jt = j.swapaxes(-1, -2)
     block = max(1, SINGLE_THREAD_WORK // max(1, p * p))
-    if n <= block:
-        return jt @ j
+    if n <= block:  # (2-D: ndarray.dot, the same BLAS call as matmul's, called faster)
+        return jt.dot(j) if j.ndim == 2 else jt @ j
     out = np.zeros((*j.shape[:-2], p, p))
     for lo in range(0, n, block):
         out += jt[..., lo:lo + block] @ j[..., lo:lo + block, :]
