@@ -156,7 +156,8 @@ class GaussNewtonModel:
                 small = False
                 break
         return cls(w[None], v[None], vg[None], scale[None],
-                   np.array([0.5 * vg.dot(vg / w)]), np.array([small]), jtj[None], evals[None])
+                   np.array([0.5 * vg.dot(vg / w)]), _ONE if small else _NONE, jtj[None],
+                   evals[None])
 
     def take(self, rows: NDArray[np.bool_]) -> GaussNewtonModel:
         """Keep the runs ``rows``."""
@@ -225,8 +226,10 @@ DOMINANCE_MARGIN = 1.0
 """Cost margin (half a chi2 unit per unit) of the dominance test."""
 
 _STALL_WINDOW = 6  # iterations over which ``stall`` measures the decrease
-_ONE = np.ones(1, dtype=bool)  # a single run's mask (read only)
+_ONE = np.ones(1, dtype=bool)  # a single run's masks (read only)
 _ONE.flags.writeable = False
+_NONE = np.zeros(1, dtype=bool)
+_NONE.flags.writeable = False
 
 
 @dataclass
@@ -537,7 +540,7 @@ def _after_step_one(runs: _Runs, trial: Evaluation, step: Array, predicted: floa
             runs.previous = (runs.cur.theta[0], runs.model.jtj[0])  # (read by _polished)
         runs.cur, runs.model = trial, None
     if tiny or damped > 1e12:
-        runs.stop(_ONE, _ONE if tiny else ~_ONE)
+        runs.stop(_ONE, _ONE if tiny else _NONE)
 
 
 POLISH_AGREEMENT = 0.01
