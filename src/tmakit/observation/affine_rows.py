@@ -58,8 +58,9 @@ class AffineRows:
             or len(self.planar_terms[stack[1] + 1]) != 1 else (stack[1], stack[2])
         #: The Jacobian rows the chain rule writes term by term: not the scaled pair, nor the
         #: positions' rows when they are the derivatives themselves (written in place).
+        scaled = self.planar_scaled
         done = ({0, 1} if self.planar_positions else set()) | (
-            set() if self.planar_scaled is None else {stack[1], stack[1] + 1})
+            set() if scaled is None else {scaled[0], scaled[0] + 1})
         self.planar_rows = [(i, own) for i, own in enumerate(self.planar_terms) if i not in done]
 
     def no_design(self, batch: tuple[int, ...]) -> Array:
