@@ -42,8 +42,8 @@ def _gram_by_products(j: Array) -> Array:
     n, p = j.shape[-2:]
     jt = j.swapaxes(-1, -2)
     block = max(1, SINGLE_THREAD_WORK // max(1, p * p))
-    if n <= block:
-        return jt @ j
+    if n <= block:  # (2-D: ndarray.dot, the same BLAS call as matmul's, called faster)
+        return jt.dot(j) if j.ndim == 2 else jt @ j
     out = np.zeros((*j.shape[:-2], p, p))
     for lo in range(0, n, block):
         out += jt[..., lo:lo + block] @ j[..., lo:lo + block, :]
@@ -55,7 +55,7 @@ def information_of(problem: VarProProblem, ev: Evaluation, run: int,
     """Give the Fisher information ``J' R^-1 J`` at run ``run``'s evaluated point, if it has it."""
     if problem.eliminates:
         return None
-    if known is not None and _ALL(np.isfinite(known[run]), axis=None):
+    if known is not None and all(map(math.isfinite, known[run].ravel().tolist())):  # (q^2)
         return np.array(known[run], dtype=float)
     if ev.normal is not None:
         return np.array(ev.normal[0][run], dtype=float)
@@ -150,9 +150,14 @@ class GaussNewtonModel:
             return None
         w = np.maximum(evals, 1e-12 * float(evals[-1]))  # floored as in :meth:`at`
         vg = (grad / scale).dot(v)
-        small = all((np.abs(grad) <= gtol * math.sqrt(2.0 * cost) * scale).tolist())
+        bound, small = gtol * math.sqrt(2.0 * cost), True  # (p products in floats: fewer calls)
+        for g, s in zip(grad.tolist(), scale.tolist(), strict=True):
+            if not abs(g) <= bound * s:
+                small = False
+                break
         return cls(w[None], v[None], vg[None], scale[None],
-                   np.array([0.5 * vg.dot(vg / w)]), np.array([small]), jtj[None], evals[None])
+                   np.array([0.5 * vg.dot(vg / w)]), _ONE if small else _NONE, jtj[None],
+                   evals[None])
 
     def take(self, rows: NDArray[np.bool_]) -> GaussNewtonModel:
         """Keep the runs ``rows``."""
@@ -221,8 +226,10 @@ DOMINANCE_MARGIN = 1.0
 """Cost margin (half a chi2 unit per unit) of the dominance test."""
 
 _STALL_WINDOW = 6  # iterations over which ``stall`` measures the decrease
-_ONE = np.ones(1, dtype=bool)  # a single run's mask (read only)
+_ONE = np.ones(1, dtype=bool)  # a single run's masks (read only)
 _ONE.flags.writeable = False
+_NONE = np.zeros(1, dtype=bool)
+_NONE.flags.writeable = False
 
 
 @dataclass
@@ -303,7 +310,7 @@ class _Runs:
         # The model is at cur (or at the point a polishing step left: see _polished).
         if self.model is not None and self.model.jtj is not None:
             if self.information is None and ids.size == b:  # every run at once (ids ascending)
-                self.information = self.model.jtj[mask]
+                self.information = self.model.jtj.copy()  # (jtj[mask]: mask is all True)
             else:
                 if self.information is None:
                     q = self.model.jtj.shape[-1]
@@ -502,8 +509,8 @@ def _damp(runs: _Runs, better: NDArray[np.bool_], gain: Array, rules: _Rules) ->
     runs.grow = np.where(better, 2.0, 2.0 * runs.grow)
 
 
-def _damp_one(runs: _Runs, better: bool, cost: float, trial: float, predicted: float) -> None:
-    """Update the damping of a single run after a step, as :func:`_damp` does (Nielsen)."""
+def _damp_one(runs: _Runs, better: bool, cost: float, trial: float, predicted: float) -> float:
+    """Update the damping of a single run after a step, as :func:`_damp` does (Nielsen); give it."""
     lam, grow = float(runs.lam[0]), float(runs.grow[0])
     if better:  # 0 < gain <= 1 here: no overflow in floats
         gain = min((cost - trial) / max(predicted, 1e-300), 1.0)
@@ -511,6 +518,7 @@ def _damp_one(runs: _Runs, better: bool, cost: float, trial: float, predicted: f
     else:
         lam, grow = lam * grow, 2.0 * grow
     runs.lam[0], runs.grow[0] = lam, grow  # (the run's own arrays)
+    return lam
 
 
 def _after_step_one(runs: _Runs, trial: Evaluation, step: Array, predicted: float,
@@ -518,17 +526,21 @@ def _after_step_one(runs: _Runs, trial: Evaluation, step: Array, predicted: floa
     """Accept or reject a single run's step, as :func:`_iterate` does for a batch (floats)."""
     cost, new = float(runs.cur.cost[0]), float(trial.cost[0])
     better, lam = new < cost, float(runs.lam[0])
-    _damp_one(runs, better, cost, new, predicted)
+    damped = _damp_one(runs, better, cost, new, predicted)
     # A heavily damped step is small without being converged (see _iterate).
-    tiny = better and lam <= 1e-2 and all(
-        abs(s) <= rules.xtol * (abs(t) + 1.0)
-        for s, t in zip(step[0].tolist(), trial.theta[0].tolist(), strict=True))
+    tiny = better and lam <= 1e-2
+    if tiny:
+        xtol = rules.xtol
+        for s, t in zip(step[0].tolist(), trial.theta[0].tolist(), strict=True):
+            if not abs(s) <= xtol * (abs(t) + 1.0):
+                tiny = False
+                break
     if better:
         if rules.polish > 0 and runs.model is not None and runs.model.jtj is not None:
             runs.previous = (runs.cur.theta[0], runs.model.jtj[0])  # (read by _polished)
         runs.cur, runs.model = trial, None
-    if tiny or float(runs.lam[0]) > 1e12:
-        runs.stop(_ONE, _ONE if tiny else ~_ONE)
+    if tiny or damped > 1e12:
+        runs.stop(_ONE, _ONE if tiny else _NONE)
 
 
 POLISH_AGREEMENT = 0.01
@@ -560,7 +572,7 @@ def _polished(problem: VarProProblem, runs: _Runs, rules: _Rules) -> bool:
 
 def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) -> _Runs:
     """Run the iterations of :func:`levenberg_marquardt` (see there for the tests)."""
-    free = rules.free
+    free, plain = rules.free, rules.plain
     for iteration in range(1, max_iter + 1):
         if runs.ids.size == 0:
             break
@@ -576,7 +588,7 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
             full[:, free] = step
             step = full
         trial = problem.evaluate_part(cur.theta + step, runs.u, runs.nu_star, True, quiet=True)
-        if lam.shape[0] == 1 and rules.plain:  # one run: its tests in floats
+        if lam.shape[0] == 1 and plain:  # one run: its tests in floats
             runs.iterations[int(runs.ids[0])] += 1
             _after_step_one(runs, trial, step, float(predicted[0]), rules)
             continue

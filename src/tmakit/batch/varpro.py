@@ -6,6 +6,7 @@ over a leading batch axis; :class:`Evaluation` holds what a Gauss–Newton step 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -393,11 +394,12 @@ class VarProProblem:
             jac = lin.jacobian(nu)  # (a new array: whitened in place)
             if not lin.whitened:
                 jac = self.noise.whiten(jac, axis=-2, overwrite=True)
-        cost = 0.5 * np.einsum("bn,bn->b", r, r)
-        if r.shape[0] == 1:  # one point: tested as a float (fewer calls)
-            if not cost[0] < np.inf:
-                cost[0] = np.inf  # nan (no prediction) -> inf
+        cost = np.einsum("bn,bn->b", r, r)
+        if r.shape[0] == 1:  # one point: halved and tested as a float (fewer calls)
+            half = 0.5 * float(cost[0])
+            cost[0] = half if half < math.inf else math.inf  # nan (no prediction) -> inf
         else:
+            cost *= 0.5
             cost = np.where(cost < np.inf, cost, np.inf)  # nan (no prediction) -> inf
         if nu is nu_star and not (isinstance(nu, np.ndarray) and nu.size == 0):
             nu = np.array(nu, dtype=float)  # (eliminated: already a new array)

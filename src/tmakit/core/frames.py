@@ -46,7 +46,7 @@ def wrap_angle_own(e: NDArray[np.float64], in_place: bool = False) -> NDArray[np
     """Return :func:`wrap_angle` of ``e``, the same bits, in place where it can."""
     if not e.size:
         return wrap_angle(e)
-    low, high = float(_LOWEST(e, axis=None)), float(_HIGHEST(e, axis=None))
+    low, high = float(_LOWEST(e, None)), float(_HIGHEST(e, None))  # (axis=None: all)
     # a - 2 pi is exact for a in [pi, 4 pi] (Sterbenz): the tests hold for the shifted rows
     if not (high - TWO_PI <= np.pi and low + TWO_PI > -np.pi):  # (NaN fails too)
         return wrap_angle(e)

@@ -68,37 +68,36 @@ class Bearing(MeasurementModel):
         np.divide(dx, rho2, out=d_rel[..., 1])
         np.negative(d_rel[..., 1], out=d_rel[..., 1])
 
-    def planar_gradient(self, dx: Array, dy: Array, out_x: Array, out_y: Array,
-                        weight: Array | None = None, negate: bool = True) -> Array:
+    def planar_gradient(self, rel: Array, out: Array, weight: Array | None = None,
+                        negate: bool = True) -> Array:
         """Write the bearings' derivatives by relative east and north.
 
         Parameters
         ----------
-        dx, dy : ndarray
-            Relative east and north positions ``(m,)``, m.
-        out_x, out_y : ndarray
-            ``(m,)`` written with ``dy / r^2`` and ``-dx / r^2``, rad/m (times ``weight``).
+        rel : ndarray
+            Relative east and north positions ``(2, m)``, m.
+        out : ndarray
+            ``(2, m)`` written with ``dy / r^2`` and ``-dx / r^2``, rad/m (times ``weight``).
         weight : ndarray, optional
             ``(m,)`` factors of the derivatives (e.g. ``1 / sigma``).
         negate : bool, optional
-            False leaves ``out_y`` holding the derivative's negative.
+            False leaves ``out[1]`` holding the derivative's negative.
 
         Returns
         -------
         ndarray
             ``r^2 = dx^2 + dy^2`` ``(m,)``, m^2.
         """
+        dx, dy = rel[0], rel[1]
         rho2 = dx * dx
         rho2 += dy * dy
+        # both rows by one product: north, east (the same bits as row by row)
         if weight is None:
-            np.divide(dy, rho2, out=out_x)
-            np.divide(dx, rho2, out=out_y)
-        else:  # the factor parked in out_x (rho2 is given back, no new array)
-            scale = np.divide(weight, rho2, out=out_x)
-            np.multiply(dx, scale, out=out_y)
-            np.multiply(dy, scale, out=out_x)
+            np.divide(rel[::-1], rho2, out=out)
+        else:
+            np.multiply(rel[::-1], weight / rho2, out=out)
         if negate:
-            np.negative(out_y, out=out_y)  # -(dx / rho2) == -dx / rho2 exactly
+            np.negative(out[1], out=out[1])  # -(dx / rho2) == -dx / rho2 exactly
         return rho2
 
     def planar_value(self, dx: Array, dy: Array) -> Array:

@@ -7,6 +7,7 @@ the non-zero terms (:meth:`AffineRows.single`), a batch by one product (:attr:`A
 from __future__ import annotations
 
 from collections.abc import Sequence
+from operator import itemgetter
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,7 +25,7 @@ class AffineRows:
 
     def __init__(self, terms: Sequence[Term], offset: Array, p: int,
                  sensor: Array | None = None) -> None:
-        self.terms = sorted(terms, key=lambda term: term[0])
+        self.terms = sorted(terms, key=itemgetter(0))  # (by parameter, stable)
         self._base, self._sensor = offset, sensor
         self._offset = None if sensor is not None else np.ascontiguousarray(offset)
         self._head: Array | None = None  # the first components of the offset, made on use
@@ -55,6 +56,12 @@ class AffineRows:
         #: them alone (the velocities): their Jacobian rows are made by one product.
         self.planar_scaled = None if stack is None or len(self.planar_terms[stack[1]]) != 1 \
             or len(self.planar_terms[stack[1] + 1]) != 1 else (stack[1], stack[2])
+        #: The Jacobian rows the chain rule writes term by term: not the scaled pair, nor the
+        #: positions' rows when they are the derivatives themselves (written in place).
+        scaled = self.planar_scaled
+        done = ({0, 1} if self.planar_positions else set()) | (
+            set() if scaled is None else {scaled[0], scaled[0] + 1})
+        self.planar_rows = [(i, own) for i, own in enumerate(self.planar_terms) if i not in done]
 
     def no_design(self, batch: tuple[int, ...]) -> Array:
         """Give the empty nuisance design ``(*batch, m, 0)`` of rows without nuisance."""

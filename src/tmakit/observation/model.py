@@ -73,7 +73,8 @@ class ObservationModel:
         self.sigmas_grouped = self._to_grouped(self.sigmas)
         self._set_row_model()
         self.angle_mask = self._to_set_order(self.angle_mask_grouped)
-        self._angles = bool(self.angle_mask.any())
+        self._angles = any(self.models[k].is_angle and sl.stop > sl.start  # (no pass over rows)
+                           for k, sl in slices.items())
 
     @property
     def order(self) -> NDArray[np.intp]:

@@ -35,10 +35,10 @@ def planar_linearisation(obs: Any, theta: Array, weights: Array | None = None
     rel_map, model, theta = found
     rel = rel_map.single(theta, components=2)  # (2, m): dx, dy, component-major
     jac = np.empty((rel_map.p, rel_map.m))
-    # parked in rows 0, 1
-    squared = model.planar_gradient(rel[0], rel[1], jac[0], jac[1], weights)
-    in_place = rel_map.planar_positions  # (else rows 0, 1 are overwritten before read)
-    _chain_terms(rel_map, jac[:2] if in_place else jac[:2].copy(), jac, in_place)
+    head = jac[:2]  # the derivatives by east and north, parked in rows 0, 1
+    squared = model.planar_gradient(rel, head, weights)
+    # (copied unless rows 0, 1 are the positions' own: else overwritten before read)
+    _chain_terms(rel_map, head if rel_map.planar_positions else head.copy(), jac)
     batch = theta.shape[:-1]
     lin = Linearisation(obs, theta, None, rel_map.no_design(batch))
     lin.planar = (model, rel, weights)
@@ -69,7 +69,7 @@ def planar_gradient_rows(obs: Any, theta: Array, weights: Array
     rel_map, model, theta = found
     rel = rel_map.single(theta, components=2)
     rows = np.empty((2, rel_map.m))
-    model.planar_gradient(rel[0], rel[1], rows[0], rows[1], weights, negate=False)
+    model.planar_gradient(rel, rows, weights, negate=False)
     return model.planar_value(rel[0], rel[1]), rows
 
 
@@ -144,28 +144,23 @@ def _jacobian_again(obs: Any, theta: Array, weights: Array | None) -> Array:
     return lin.planar_jacobian
 
 
-def _chain_terms(rel_map: AffineRows, g: Array, jac: Array, in_place: bool) -> None:
+def _chain_terms(rel_map: AffineRows, g: Array, jac: Array) -> None:
     """Write ``jac[i] = sum_c g[c] coef[i, c]`` over the terms of components 0 and 1."""
     scaled = rel_map.planar_scaled  # (the velocities' pair: one product, the same bits)
     if scaled is not None:
         np.multiply(g, scaled[1], out=jac[scaled[0]:scaled[0] + 2])
-    for i, own in enumerate(rel_map.planar_terms):
-        if scaled is not None and 0 <= i - scaled[0] < 2:
-            continue
+    for i, own in rel_map.planar_rows:
         row = jac[i]
         if not own:
             row.fill(0.0)
             continue
-        first = True
-        for c, coef in own:
-            if first:
-                if coef is None:
-                    if not (in_place and i == c):
-                        row[...] = g[c]
-                else:
-                    np.multiply(g[c], coef, out=row)
-                first = False
-            elif coef is None:
+        (c, coef), rest = own[0], own[1:]
+        if coef is None:
+            row[...] = g[c]
+        else:
+            np.multiply(g[c], coef, out=row)
+        for c, coef in rest:
+            if coef is None:
                 row += g[c]
             else:
                 row += g[c] * coef

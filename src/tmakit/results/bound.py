@@ -24,7 +24,8 @@ def pseudo_covariance(obsv: Observability) -> NDArray[np.float64]:
     if lo:
         evals, evecs = evals[lo:], evecs[:, lo:]
     seen = evecs * scale[:, None]  # in the parameters' units
-    return (seen / evals) @ seen.T
+    cov: NDArray[np.float64] = (seen / evals).dot(seen.T)  # (the BLAS call of @, faster)
+    return cov
 
 
 @dataclass
