@@ -175,8 +175,10 @@ def estimate(
         with failing("--scale-sigma: "):
             meas, factors = rescaled(meas, normalised_residuals(result, meas, model), result.dof)
         result = fit(meas)
+    from ..results.checks import fit_warnings
+
     answer = answer_or_fail(result, meas, sensor, time=parse_time(at, meas, "--at"))
-    warnings = result.warnings(meas)
+    warnings = fit_warnings(result, meas, answer if at is None and sensor is None else None)
     warnings += manoeuvre_warnings(meas, result, model)
     print_estimate(meas, result, as_json, answer=answer, units=units, warnings=warnings,
                    factors=factors, plot=(plot, " + ".join(map(str, files)), model), more=more)
