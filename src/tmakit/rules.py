@@ -16,6 +16,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from .core.arrays import finite_range
 from .core.units import REACH_M, SPEED_OF_LIGHT, TIME_LIMIT_S
 from .measurements import KINDS
 
@@ -62,11 +63,10 @@ def time_problem(time: float, times: NDArray[np.float64] | None, what: str) -> s
     """Say why a time asked for (an answer's, a reference time) cannot be used, or None."""
     if not math.isfinite(time):
         return f"{what} {time}: expected a finite time (s)"
-    t = np.zeros(0) if times is None else np.asarray(times, dtype=float)
-    t = t[np.isfinite(t)]
-    if not t.size:
+    span = None if times is None else finite_range(np.asarray(times, dtype=float))
+    if span is None:
         return None
-    low, high = float(t.min()), float(t.max())
+    low, high = span
     reach = OUTLIER_SPANS * max(high - low, 1.0)
     if low - reach <= time <= high + reach:
         return None

@@ -225,8 +225,9 @@ def _spread_rows(meas: MeasurementSet, result: EstimateResult,
                  options: Mapping[str, Mapping[str, object]] | None
                  ) -> tuple[MeasurementSet, EstimateResult]:
     """``MAX_ROWS`` rows evenly spread in time, and the CV fit refitted on them."""
-    order = np.argsort(meas.time, kind="stable")
-    meas = meas.take(order[np.linspace(0, len(meas) - 1, MAX_ROWS).round().astype(int)])
+    rows = np.linspace(0, len(meas) - 1, MAX_ROWS).round().astype(int)
+    t = meas.time  # (no sort of rows already in time order)
+    meas = meas.take(rows if np.all(t[1:] >= t[:-1]) else np.argsort(t, kind="stable")[rows])
     return meas, estimate(meas, result.motion, init=result.estimate, options=options)
 
 

@@ -176,8 +176,10 @@ def estimate(
         with failing("--scale-sigma: "):
             meas, factors = rescaled(meas, normalised_residuals(result, meas, model), result.dof)
         result = fit(meas)
+    from ..results.checks import fit_warnings
+
     answer = answer_or_fail(result, meas, sensor, time=parse_time(at, meas, "--at"))
-    warnings = result.warnings(meas)
+    warnings = fit_warnings(result, meas, answer if at is None and sensor is None else None)
     warnings += manoeuvre_warnings(meas, result, model)
     print_estimate(meas, result, as_json, answer=answer, units=units, warnings=warnings,
                    factors=factors, plot=(plot, " + ".join(map(str, files)), model), more=more)
@@ -258,8 +260,8 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
     exact, criterion, alpha, accelerations = manoeuvre
     check_dim(dim)
     name = motion if motion is not None else meas.metadata.get("motion")
-    if name is not None and getattr(motion_or_fail(name, ref_time, meas), "manoeuvres",
-                                                None) is not None:
+    model = None if name is None else motion_or_fail(motion, ref_time, meas)
+    if getattr(model, "manoeuvres", None) is not None:
         if dim is not None:
             raise fail("--dim applies to static2d and cv2d fits, not to --motion "
                        f"{name} (a manoeuvring target moves on the surface)")
@@ -281,7 +283,7 @@ def fitter(meas: Any, motion: str | None, ref_time: float | None,
     if exact or criterion is not None or alpha is not None or accelerations is not None:
         raise fail("--exact, --criterion, --alpha and --accelerations apply to --motion "
                    "curvilinear[:M] only")
-    model = motion_or_fail(motion, ref_time, meas)
+    model = model if model is not None else motion_or_fail(motion, ref_time, meas)
     if dim is not None and method != "ml":
         raise fail(f"--dim: the height is fitted by ml only, not by --method {method}")
 
@@ -562,8 +564,10 @@ def legs_of(meas: Any, turn_rate: float | None) -> Any:
     rate = TURN_RATE_DEG_S if turn_rate is None else turn_rate
     if not rate > 0:
         raise fail(f"--turn-rate {turn_rate!r}: expected a heading rate > 0 (deg/s)")
-    speed = np.hypot(meas.sensor_state[:, 3], meas.sensor_state[:, 4])
-    if not np.any(speed > 0.05) or len(own_ship_sensors(meas)) != len(meas.sensors):
+    v, block = meas.sensor_state, 1 << 16  # by blocks, up to the first moving row
+    moving = any(np.any(np.hypot(v[lo:lo + block, 3], v[lo:lo + block, 4]) > 0.05)
+                 for lo in range(0, len(meas), block))
+    if not moving or len(own_ship_sensors(meas)) != len(meas.sensors):
         return None
     return own_ship_legs(meas, turn_rate_deg_s=rate)
 

@@ -6,13 +6,14 @@ the docstring of the function that takes it.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Array", "BoolArray", "IntArray", "broadcast", "row_labels", "take_rows",
-           "zeros_broadcast"]
+__all__ = ["Array", "BoolArray", "IntArray", "broadcast", "finite_range", "row_labels",
+           "take_rows", "zeros_broadcast"]
 
 #: A float64 array (shapes and units are given where it is used).
 Array = NDArray[np.float64]
@@ -25,6 +26,19 @@ BoolArray = NDArray[np.bool_]
 def broadcast(column: NDArray[np.generic]) -> bool:
     """Tell whether ``column`` holds one value for every row (a zero-stride broadcast)."""
     return column.ndim > 0 and column.strides[0] == 0
+
+
+def finite_range(values: Array) -> tuple[float, float] | None:
+    """Give the least and greatest finite values (None if none), copying nothing when all are."""
+    if not values.size:
+        return None
+    low, high = float(np.min(values)), float(np.max(values))
+    if not (math.isfinite(low) and math.isfinite(high)):  # (a NaN gives NaN to both)
+        finite = values[np.isfinite(values)]
+        if not finite.size:
+            return None
+        low, high = float(finite.min()), float(finite.max())
+    return low, high
 
 
 _ZERO = np.zeros(1)

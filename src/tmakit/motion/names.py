@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.arrays import finite_range
 from .base import MotionModel
 from .constant_velocity import ConstantVelocity, Stationary
 from .curvilinear import PiecewiseCurvilinear
@@ -82,10 +83,9 @@ def default_ref_time(times: ArrayLike) -> float:
     -------
     float
     """
-    t = np.asarray(times, dtype=float)
-    t = t[np.isfinite(t)]
-    if t.size == 0:
+    finite = finite_range(np.asarray(times, dtype=float))
+    if finite is None:
         return 0.0
-    low, high = float(t.min()), float(t.max())
+    low, high = finite
     span = max(high - low, 1.0)
     return 0.0 if low - span <= 0.0 <= high + span else low

@@ -16,7 +16,7 @@ from ..core import chi2 as chi2_dist
 from ..data import KIND_CODES, MeasurementSet
 from ..measurements import model_for
 from ..observation import ObservationModel
-from .answers import bearing_interval, estimate_answer
+from .answers import Answer, bearing_interval, estimate_answer
 from .solutions import range_spread
 
 CHI2_P_LIMIT = 0.001
@@ -237,8 +237,12 @@ def range_spread_warning(solutions: list[Any], meas: MeasurementSet) -> SanityWa
         + ". An own-ship manoeuvre across the line of sight would pin the range down"))
 
 
-def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
-    """Return every warning about a batch estimate and the measurements it fitted."""
+def fit_warnings(result: object, meas: MeasurementSet, answer: Answer | None = None
+                 ) -> list[SanityWarning]:
+    """Return every warning about a batch estimate and the measurements it fitted.
+
+    ``answer``, if given, is ``estimate_answer(result, meas)`` (at the last time), computed once.
+    """
     farthest = _farthest_sensor(meas) if len(meas) else None
     found = measurement_warnings(meas, farthest)
     chi2, dof = float(result.chi2), int(result.dof)  # type: ignore[attr-defined]
@@ -262,7 +266,7 @@ def fit_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
                 f"Earth (more than {FAST_SPEED:g} m/s): the answer is not to be trusted. Are "
                 f"the times in seconds (the data span {span:.3g} s)? Otherwise the data do "
                 "not determine the motion (try a simpler --motion, or more data)")))
-        found.extend(undetermined_warnings(result, meas))
+        found.extend(undetermined_warnings(result, meas, answer))
     wider = wider_model_warning(result, meas)
     if wider is not None:
         found.append(wider)
@@ -295,13 +299,14 @@ def wider_model_warning(result: object, meas: MeasurementSet) -> SanityWarning |
         "own-ship manoeuvre after the target's last one would pin the range down"))
 
 
-def undetermined_warnings(result: object, meas: MeasurementSet) -> list[SanityWarning]:
+def undetermined_warnings(result: object, meas: MeasurementSet, answer: Answer | None = None
+                          ) -> list[SanityWarning]:
     """Return a warning when the answer leaves out quantities the data do not determine.
 
     With the range undetermined, a second (``ellipse-not-a-bound``) says that the position's
     ellipse, however small, is no bound on the truth.
     """
-    answer = estimate_answer(result, meas)
+    answer = estimate_answer(result, meas) if answer is None else answer
     weak = answer.undetermined
     if not weak:
         return []

@@ -60,7 +60,8 @@ def _bracketing_rows(time: NDArray[np.float64], sel: NDArray[np.bool_] | None, t
 
     before = np.max(time, where=mask(time < t), initial=-np.inf)
     after = np.min(time, where=mask(time > t), initial=np.inf)
-    return np.flatnonzero(mask((time == before) | (time == t) | (time == after)))
+    # (no selected time lies strictly between before and t, or t and after)
+    return np.flatnonzero(mask((time >= before) & (time <= after)))
 
 
 #: The altitude references a measurement set's metadata names, in words.

@@ -243,16 +243,20 @@ def detect_legs(time: NDArray[np.float64], state: NDArray[np.float64], *,
                 turn_rate_deg_s: float = TURN_RATE_DEG_S, window_s: float = RATE_WINDOW_S,
                 min_turn_deg: float = MIN_TURN_DEG) -> LegsAndTurns:
     """Cut an own ship's navigation into straight legs and turns, from its heading rate."""
-    t_all = np.asarray(time, dtype=float)
-    in_order = bool(np.all(t_all[1:] >= t_all[:-1]))  # no sort of a log already in time order
-    order = np.arange(t_all.size) if in_order else np.argsort(t_all, kind="stable")
-    t = t_all[order]
+    t = np.asarray(time, dtype=float)
+    # no sort (nor copy) of a log already in time order
+    order = None if np.all(t[1:] >= t[:-1]) else np.argsort(t, kind="stable")
+    if order is not None:
+        t = t[order]
     # one fix per window_s / 60 (1 s by default) is all a heading rate over window_s needs
-    bins = np.floor((t - t[:1]) * (60.0 / window_s))
-    kept = np.flatnonzero(np.concatenate([[True], np.diff(bins) > 0]))
+    bins = t - t[0]
+    bins *= 60.0 / window_s
+    np.floor(bins, out=bins)
+    kept = np.concatenate([[0], np.flatnonzero(bins[1:] > bins[:-1]) + 1])
+    del bins
     last = int(np.searchsorted(t, t[-1], "left"))  # and the last fix
     kept = np.append(kept[kept < last], last)
-    t, first = t[kept], order[kept]
+    t, first = t[kept], kept if order is None else order[kept]
     v = np.asarray(state, dtype=float)[first, 3:5]
     speed = np.hypot(v[:, 0], v[:, 1])
     lo, hi = _windows(t, window_s)  # the speed of the window's mean velocity: noise averages out
@@ -366,7 +370,9 @@ def own_ship_sensors(meas: MeasurementSet, sensor: str | None = None) -> list[st
         ``sensor`` first, then the others on its own ship in the set's order.
     """
     names = list(meas.sensors)
-    if sensor is None:
+    if sensor is None and len(names) == 1:
+        sensor = names[0]
+    elif sensor is None:
         counts = np.bincount(meas.sensor_code, minlength=len(meas.sensor_names))
         sensor = max(names, key=lambda n: int(counts[meas.sensor_names.index(n)]))
     if sensor not in names:
