@@ -188,9 +188,7 @@ def track(
     answer; the table, -o and --plot show where it went); 2: bad input (docs/reliability.md).
     """
     output, plot = check_track_options(output, plot, force, filter_name, particles, seed,
-                                       ellipses, rows)
-    check_sums(sums, filter_name, as_json, follow)
-    check_units(units)
+                                       ellipses, rows, (sums, as_json, follow, units))
     page = check_solution_outputs(html, None, force, [*files], taken=[plot]).html
     reading = (parse_origin(origin), check_dim(dim), logs)
     options = model_options(drift, free_exponent, propagation_speed)
@@ -796,8 +794,9 @@ def tracking_failure(e: Any) -> typer.Exit:
 
 def check_track_options(output: Path | None, plot: Path | None, force: bool,
                         filter_name: str, particles: int | None, seed: int | None,
-                        ellipses: int, rows: int) -> tuple[Path | None, Path | None]:
-    """Refuse bad ``tma track`` options before reading the file."""
+                        ellipses: int, rows: int, shown: tuple[bool, bool, bool, str]
+                        ) -> tuple[Path | None, Path | None]:
+    """Refuse bad ``tma track`` options before reading (``shown``: --sums, --json, --follow, --units)."""
     from .. import tracking
     from ..filters import FILTERS
 
@@ -820,6 +819,8 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
         raise fail("--ellipses must be 0 or more and --rows 1 or more")
     if seed is not None and seed < 0:  # numpy's words would not name the option
         raise fail(f"--seed {seed}: expected a whole number >= 0")
+    check_sums(shown[0], filter_name, shown[1], shown[2])
+    check_units(shown[3])
     return output, plot
 
 
