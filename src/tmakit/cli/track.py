@@ -796,7 +796,7 @@ def check_track_options(output: Path | None, plot: Path | None, force: bool,
                         filter_name: str, particles: int | None, seed: int | None,
                         ellipses: int, rows: int, shown: tuple[bool, bool, bool, str]
                         ) -> tuple[Path | None, Path | None]:
-    """Refuse bad ``tma track`` options before reading (``shown``: --sums, --json, --follow, --units)."""
+    """Refuse bad ``tma track`` options before reading (``shown``: sums, json, follow, units)."""
     from .. import tracking
     from ..filters import FILTERS
 
