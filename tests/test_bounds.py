@@ -150,3 +150,23 @@ def test_ellipse_and_derived_quantities_follow_the_delta_method():
     c = bound.covariance[2:4, 2:4]
     g = np.array([-21.65, -12.5]) / speed
     assert speed_std == pytest.approx(np.sqrt(g @ c @ g), rel=1e-9)
+
+
+def test_derived_std_where_only_the_position_is_undetermined(monkeypatch):
+    """Speed and course keep their std when the velocity is known and the position is not.
+
+    The full product ``g' C g`` made them NaN (``0 * inf``) where an unobservable state lies off
+    the gradient's support; the std is the one of the velocity block.
+    """
+    bound = crlb(tk.load_scenario("bearings-only-2d"))
+    state = np.array([1000.0, 2000.0, 0.0, 3.0, 4.0, 0.0])
+    cov = np.diag([1.0, 1.0, 0.0, 0.04, 0.09, 0.0])
+    cov[3, 4] = cov[4, 3] = 0.01
+    cov[0, :] = cov[:, 0] = np.inf  # east unobservable
+    monkeypatch.setattr(bound, "state_covariance", lambda t: (state, cov))
+    d = bound.derived(0.0)
+    g = np.array([3.0, 4.0]) / 5.0
+    assert d["x"][1] == np.inf
+    assert d["speed"] == (5.0, pytest.approx(np.sqrt(g @ cov[3:5, 3:5] @ g)))
+    h = np.array([4.0, -3.0]) / 25.0
+    assert d["course"][1] == pytest.approx(np.sqrt(h @ cov[3:5, 3:5] @ h))

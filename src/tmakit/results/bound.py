@@ -176,9 +176,11 @@ class Bound:
         speed = float(np.linalg.norm(v))
 
         def std_of(grad6: NDArray[np.float64]) -> float:
-            if not np.all(np.isfinite(cov[np.ix_(grad6 != 0, grad6 != 0)])):
+            on = grad6 != 0  # an unobservable state off the gradient's support does not count
+            sub = cov[np.ix_(on, on)]
+            if not np.all(np.isfinite(sub)):
                 return float("inf")
-            var = float(grad6 @ cov @ grad6)  # below 0 only by rounding: not a number then
+            var = float(grad6[on] @ sub @ grad6[on])  # below 0 only by rounding: not a number
             return float(np.sqrt(var)) if var >= 0.0 else float("nan")
 
         if speed > 0:
