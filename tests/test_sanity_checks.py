@@ -98,14 +98,20 @@ def test_far_sensors_and_far_estimates_are_warned_about():
     assert "radians" in codes and "far-estimate" in codes
 
 
-def test_a_track_that_cannot_start_from_bearings_in_radians_says_they_look_like_radians(
-        tmp_path):
-    meas = tk.load_scenario("bearings-only-2d").simulate(rng=1)
+def radian_bearings_file(tmp_path, seed):
+    """bearings-only-2d's bearings written in radians where the file wants degrees."""
+    meas = tk.load_scenario("bearings-only-2d").simulate(rng=seed)
     rad = tk.MeasurementSet.from_si(meas.time, meas.sensor, meas.kind,
                                     np.radians(meas.value_si), meas.sigma_si,
                                     meas.sensor_state)
     path = tmp_path / "radians.csv"
     tk.write_measurements(rad, path)
+    return path
+
+
+def test_a_track_that_cannot_start_from_bearings_in_radians_says_they_look_like_radians(
+        tmp_path):
+    path = radian_bearings_file(tmp_path, seed=1)
     out = run("track", str(path))
     assert out.exit_code == 2, out.output
     said = " ".join(out.output.split())
@@ -168,11 +174,6 @@ def test_solution_picture_in_lat_lon_with_residual_panels_per_kind(tmp_path):
 
 
 def test_show_warns_about_radian_bearings(tmp_path):
-    meas = tk.load_scenario("bearings-only-2d").simulate(rng=2)
-    rad = tk.MeasurementSet.from_si(meas.time, meas.sensor, meas.kind,
-                                    np.radians(meas.value_si), meas.sigma_si,
-                                    meas.sensor_state)
-    path = tmp_path / "rad.csv"
-    tk.write_measurements(rad, path)
+    path = radian_bearings_file(tmp_path, seed=2)
     out = run("show", str(path))
     assert out.exit_code == 0 and "warning:" in out.output and "radians" in out.output
