@@ -477,9 +477,9 @@ FUSED = [Bearing(), Elevation(), Range(), RangeRate(), Frequency(), Frequency(dr
 
 
 @pytest.mark.parametrize("model", FUSED, ids=repr)
-def test_planar_gradients_equal_predict_and_jacobian(model):
-    """predict_gradient (the filters' general path) and, where a kind has it, the plain-float
-    row_gradient give predict and jacobian's rel part."""
+def test_row_gradients_equal_predict_and_jacobian(model):
+    """The plain-float row_gradient (the filters' small updates), where a kind has it, gives
+    predict and jacobian's rel part."""
     rng = np.random.default_rng(3)
     rel = np.c_[rng.uniform(-9e3, 9e3, (40, 3)), rng.uniform(-30, 30, (40, 3))]
     t = rng.uniform(0, 100, 40)
@@ -487,10 +487,7 @@ def test_planar_gradients_equal_predict_and_jacobian(model):
                                 "power_constant_db": -30.0}) if model.nuisance_names else None
     want_v = model.predict(rel, t, nu)
     want_d = model.jacobian(rel, t, nu).rel
-    got_v, got_d = model.predict_gradient(rel, t, nu)
     scale = np.abs(want_d).max(axis=1, keepdims=True)
-    assert np.allclose(got_v, want_v, rtol=1e-14, atol=0)
-    assert np.all(np.abs(got_d - want_d) <= 1e-14 * scale)
     if model.has_row_gradient:
         nus = () if nu is None else tuple(nu.tolist())
         rows = np.array([model.row_gradient(tuple(r), float(ti), nus)

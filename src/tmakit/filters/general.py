@@ -142,7 +142,7 @@ def prepared_for(meas: MeasurementSet, dim: int,
 #: the kinds' parts, the state-to-target map ``T`` (m * 6, n), its rows as (m, 6, n) or None
 #: when every row is at the update time (then ``E`` (6, n) chains), noise ``R`` (m, m), the
 #: angle rows (index or None), the row times (m,), and the rows as plain-float records
-#: for the kinds' ``row_gradient`` (or None: the kinds' ``predict_gradient`` on arrays).
+#: for the kinds' ``row_gradient`` (or None: their ``values_and_derivatives_into``).
 Step = tuple[Any, ...]
 
 
@@ -257,14 +257,10 @@ def linearise(step: Step, x: Array) -> tuple[Array, Array, bool]:
     if rows is not None:
         return _linearise_rows(rows, x, x.shape[0] // 2)
     rel = (tmap.dot(x) - sens).reshape(-1, 6)
-    if len(parts) == 1:
-        model, _, nu = parts[0]
-        pred, d = model.predict_gradient(rel, times, nu)
-    else:
-        pred = np.empty(rel.shape[0])
-        d = np.empty(rel.shape)
-        for model, sl, nu in parts:
-            pred[sl], d[sl] = model.predict_gradient(rel[sl], times[sl], nu)
+    pred = np.empty(rel.shape[0])
+    d = np.zeros(rel.shape)
+    for model, sl, nu in parts:
+        model.values_and_derivatives_into(rel[sl], times[sl], pred[sl], d[sl], nu)
     h = d.dot(EYE_MAPS[x.shape[0]]) if t3 is None else np.einsum("mi,min->mn", d, t3)
     y = z - pred
     if angle is not None:

@@ -52,8 +52,8 @@ class AzimuthRate(MeasurementModel):
         d[..., 4] = -dx / rho2
         return Jacobian(d, None, zeros_nuisance(rel))
 
-    def values_and_derivatives_into(self, rel: Array, t: Array, values: Array,
-                                    d_rel: Array) -> None:
+    def values_and_derivatives_into(self, rel: Array, t: Array | None, values: Array,
+                                    d_rel: Array, nuisance: Array | None = None) -> None:
         """Write azimuth rates and their derivatives (the operations of :meth:`jacobian`)."""
         # The operations of jacobian in its order, on contiguous copies of the four components
         # and one scratch array (1.5x faster on the manoeuvre search's batches of rows).

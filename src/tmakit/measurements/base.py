@@ -355,25 +355,6 @@ class MeasurementModel:
         """
         raise NotImplementedError(f"{self.kind}: no plain-float row_gradient")
 
-    def predict_gradient(self, rel: Array, t: Array | None = None,
-                         nuisance: Array | None = None) -> tuple[Array, Array]:
-        """Give the predictions and their derivatives with respect to ``rel`` in one pass.
-
-        Parameters
-        ----------
-        rel, t, nuisance
-            As for :meth:`predict`.
-
-        Returns
-        -------
-        values : ndarray
-            ``rel.shape[:-1]``, SI.
-        d_rel : ndarray
-            ``rel.shape``, SI per m and per m/s.
-        """
-        return (self.predict(rel, t, nuisance, None),
-                self.jacobian(rel, t, nuisance, None).rel)
-
     def affine_parts(self, rel: ArrayLike, t: ArrayLike | None = None,
                      rel_ref: ArrayLike | None = None) -> tuple[Array, Array, Array]:
         """Split the prediction as ``h0 + (A_const + A_var) @ nuisance``.
@@ -403,19 +384,19 @@ class MeasurementModel:
         cols = [self.predict(rel, t, np.eye(k)[j], rel_ref) - base for j in range(k)]
         return base, empty, np.stack(cols, axis=-1)
 
-    def values_and_derivatives_into(self, rel: Array, t: Array, values: Array,
-                                    d_rel: Array) -> None:
-        """Write :meth:`predict` and d value / d ``rel`` in place (kinds without nuisance).
+    def values_and_derivatives_into(self, rel: Array, t: Array | None, values: Array,
+                                    d_rel: Array, nuisance: Array | None = None) -> None:
+        """Write :meth:`predict` and d value / d ``rel`` in place (no reference sample).
 
         Parameters
         ----------
-        rel, t
+        rel, t, nuisance
             As for :meth:`predict`.
         values, d_rel : ndarray
             ``rel.shape[:-1]`` and ``rel.shape`` (zeros on entry), written in SI.
         """
-        values[...] = self.predict(rel, t, None, None)
-        d_rel[...] = self.jacobian(rel, t, None, None).rel
+        values[...] = self.predict(rel, t, nuisance, None)
+        d_rel[...] = self.jacobian(rel, t, nuisance, None).rel
 
     def affine_derivatives(self, rel: ArrayLike, t: ArrayLike | None = None,
                            rel_ref: ArrayLike | None = None

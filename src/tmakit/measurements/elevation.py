@@ -48,24 +48,11 @@ class Elevation(MeasurementModel):
         d[..., 2] = rho / r2
         return Jacobian(d, None, zeros_nuisance(rel))
 
-    def predict_gradient(self, rel: Array, t: Array | None = None,
-                         nuisance: Array | None = None) -> tuple[Array, Array]:
-        """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` in one pass (rad, rad/m)."""
-        dx, dy, dz = rel[..., 0], rel[..., 1], rel[..., 2]
-        rho = np.hypot(dx, dy)
-        inv_r2 = 1.0 / (rho * rho + dz * dz)
-        c = -dz * inv_r2 / rho
-        d = np.zeros(rel.shape)
-        d[..., 0] = c * dx
-        d[..., 1] = c * dy
-        d[..., 2] = rho * inv_r2
-        return np.arctan2(dz, rho), d
-
     has_row_gradient = True
 
     def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
                      ) -> tuple[float, ...]:
-        """Give :meth:`predict_gradient` for one row in plain floats (rad, rad/m)."""
+        """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` for one row in plain floats."""
         dx, dy, dz = rel[0], rel[1], rel[2]
         rho = math.hypot(dx, dy)
         inv_r2 = 1.0 / (rho * rho + dz * dz)

@@ -83,6 +83,8 @@ class Frequency(MeasurementModel):
         if nu.shape[-1] != len(self.nuisance_names):
             raise ValueError(f"frequency: expected nuisance ({', '.join(self.nuisance_names)}),"
                              f" got shape {nu.shape}")
+        if nu.ndim == 1 and not self.drift:  # one carrier for every row
+            return nu[0]
         carrier = nu[..., 0]
         if self.drift:
             if t is None:
@@ -135,37 +137,34 @@ class Frequency(MeasurementModel):
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
                  ) -> Jacobian:
         """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`."""
-        rel = as_rel(rel)
-        if nuisance is None:
-            raise ValueError("frequency: the carrier (nuisance parameter) is needed")
-        rdot, grad = range_rate_and_gradient(rel)
-        carrier = self._carrier(t, nuisance, rdot.shape)
-        d_rel = -(carrier / self.c)[..., None] * grad
+        rdot, _, d_rel = self._rate_carrier_gradient(as_rel(rel), t, nuisance)
         scale = 1.0 - rdot / self.c
         cols = [scale]
         if self.drift:
             cols.append(scale * np.asarray(t, dtype=float))
         return Jacobian(d_rel, None, np.stack(cols, axis=-1))
 
-    def predict_gradient(self, rel: Array, t: Array | None = None,
-                         nuisance: Array | None = None) -> tuple[Array, Array]:
-        """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` in one pass (Hz, Hz/m, Hz s/m)."""
+    def values_and_derivatives_into(self, rel: Array, t: Array | None, values: Array,
+                                    d_rel: Array, nuisance: Array | None = None) -> None:
+        """Write frequencies and their derivatives (the operations of :meth:`jacobian`)."""
+        rdot, carrier, d_rel[...] = self._rate_carrier_gradient(rel, t, nuisance)
+        np.multiply(carrier, 1.0 - rdot / self.c, out=values)
+
+    def _rate_carrier_gradient(self, rel: Array, t: ArrayLike | None,
+                               nuisance: ArrayLike | None) -> tuple[Array, Array, Array]:
+        """Give the range rate, the carrier and d frequency / d ``rel``."""
         if nuisance is None:
             raise ValueError("frequency: the carrier (nuisance parameter) is needed")
         rdot, grad = range_rate_and_gradient(rel)
-        nu = np.asarray(nuisance, dtype=float)
-        if self.drift or nu.ndim != 1 or nu.shape[0] != 1:
-            carrier = self._carrier(t, nuisance, rdot.shape)
-        else:  # one known carrier: a scalar
-            carrier = nu[0]
+        carrier = self._carrier(t, nuisance, rdot.shape)
         grad *= (carrier / -self.c)[..., None]
-        return carrier * (1.0 - rdot / self.c), grad
+        return rdot, carrier, grad
 
     has_row_gradient = True
 
     def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
                      ) -> tuple[float, ...]:
-        """Give :meth:`predict_gradient` for one row in plain floats (Hz, Hz/m, Hz s/m)."""
+        """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` for one row in plain floats."""
         rdot, g0, g1, g2, g3, g4, g5 = range_rate_row(rel)
         carrier = nuisance[0] + nuisance[1] * t if self.drift else nuisance[0]
         k = carrier / -self.c
