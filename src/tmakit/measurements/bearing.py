@@ -14,6 +14,15 @@ from ..core.arrays import Array
 from .base import Jacobian, MeasurementModel, ValueRange, as_rel, zeros_nuisance
 
 
+def _derivatives_into(dx: Array, dy: Array, d_rel: Array) -> None:
+    """Write the bearings' derivatives ``dy / r^2`` and ``-dx / r^2`` into ``d_rel[..., :2]``."""
+    rho2 = dx * dx
+    rho2 += dy * dy
+    np.divide(dy, rho2, out=d_rel[..., 0])
+    np.divide(dx, rho2, out=d_rel[..., 1])
+    np.negative(d_rel[..., 1], out=d_rel[..., 1])  # -(dx / rho2) == -dx / rho2 exactly
+
+
 class Bearing(MeasurementModel):
     """Bearing ``atan2(dx, dy)``, rad (clockwise from North); deg in files.
 
@@ -45,28 +54,19 @@ class Bearing(MeasurementModel):
                  ) -> Jacobian:
         """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`."""
         rel = as_rel(rel)
-        dx, dy = rel[..., 0], rel[..., 1]
-        rho2 = dx * dx
-        rho2 += dy * dy
         # Component-major, like the relative states: columns 2..5 stay untouched zero pages.
         d = np.zeros(rel.swapaxes(-1, -2).shape).swapaxes(-1, -2)
-        np.divide(dy, rho2, out=d[..., 0])
-        np.divide(dx, rho2, out=d[..., 1])
-        np.negative(d[..., 1], out=d[..., 1])  # -(dx / rho2) == -dx / rho2 exactly
+        _derivatives_into(rel[..., 0], rel[..., 1], d)
         return Jacobian(d, None, zeros_nuisance(rel))
 
     def values_and_derivatives_into(self, rel: Array, t: Array | None, values: Array,
                                     d_rel: Array, nuisance: Array | None = None) -> None:
-        """Write bearings and their derivatives (the operations of :meth:`jacobian`)."""
+        """Write bearings and their derivatives (those of :meth:`jacobian`)."""
         # (the components read once, strided, then contiguous: 1.5x faster on the batches of
         # the manoeuvre search, 23 x 901 rows)
         dx, dy = np.ascontiguousarray(rel[..., 0]), np.ascontiguousarray(rel[..., 1])
         np.arctan2(dx, dy, out=values)
-        rho2 = dx * dx
-        rho2 += dy * dy
-        np.divide(dy, rho2, out=d_rel[..., 0])
-        np.divide(dx, rho2, out=d_rel[..., 1])
-        np.negative(d_rel[..., 1], out=d_rel[..., 1])
+        _derivatives_into(dx, dy, d_rel)
 
     def planar_gradient(self, rel: Array, out: Array, weight: Array | None = None,
                         negate: bool = True) -> Array:
