@@ -17,6 +17,15 @@ from .base import Jacobian, MeasurementModel, ValueRange, as_rel, dot3, range_of
 _TEN_OVER_LN10 = 10.0 / np.log(10.0)
 
 
+def _squared_range_and_gradient(rel: Array, n: Array | float) -> tuple[Array, Array]:
+    """Give ``R^2`` and d(-10 n log10 R) / d rel = -(10 n / ln 10) p / R^2 (position part)."""
+    p = rel[..., :3]
+    r2 = dot3(p, p)
+    d = np.zeros(rel.shape)
+    d[..., :3] = p * (-_TEN_OVER_LN10 * n / r2)[..., None]
+    return r2, d
+
+
 class Power(MeasurementModel):
     """Received power ``power_constant_db - 10 n log10 R``; dBW inside, dBm in files.
 
@@ -94,13 +103,8 @@ class Power(MeasurementModel):
                                       Array | None, Array | None]:
         """Give the affine parts and their derivatives in one pass."""
         rel = as_rel(rel)
-        p = rel[..., :3]
-        r2 = dot3(p, p)
+        r2, d = _squared_range_and_gradient(rel, 1.0 if self.exponent is None else self.exponent)
         h0, const, var = self._design(r2)
-        # d(-10 n log10 R) / d rel = -(10 n / ln 10) p / R^2 (position part only)
-        n = 1.0 if self.exponent is None else self.exponent
-        d = np.zeros_like(rel)
-        d[..., :3] = p * (-_TEN_OVER_LN10 * n / r2)[..., None]
         if self.exponent is None:
             d_a = np.zeros((*rel.shape[:-1], 2, 6))
             d_a[..., 1, :] = d
@@ -111,12 +115,7 @@ class Power(MeasurementModel):
                  nuisance: ArrayLike | None = None, rel_ref: ArrayLike | None = None
                  ) -> Jacobian:
         """Give the derivatives of :meth:`predict`; see :meth:`MeasurementModel.jacobian`."""
-        rel = as_rel(rel)
-        _, n = self._split(nuisance)
-        p = rel[..., :3]
-        r2 = np.einsum("...i,...i->...", p, p)
-        d = np.zeros(rel.shape)
-        d[..., :3] = -(_TEN_OVER_LN10 * n / r2)[..., None] * p
+        r2, d = _squared_range_and_gradient(as_rel(rel), self._split(nuisance)[1])
         cols = [np.ones(r2.shape)]
         if self.exponent is None:
             cols.append(-5.0 * np.log10(r2))
