@@ -40,6 +40,8 @@ class MaximumLikelihood(BatchEstimator):
     known_nuisance: KnownNuisanceLike = None
     grid: GridSettings | None = None
     max_iter: int = 100
+    #: look for separated solutions among the no-guess starts' other ends (``solutions``)
+    solutions: bool = True
 
     name: ClassVar[str] = "ml"
     takes_known_nuisance: ClassVar[bool] = True
@@ -87,7 +89,8 @@ class MaximumLikelihood(BatchEstimator):
                                       jacobian=jacobians.get(id(best)),
                                       information=best.information,
                                       decomposition=best.decomposition)
-                res.solutions = _solutions(problem, res, best, known, meas)
+                if self.solutions:
+                    res.solutions = _solutions(problem, res, best, known, meas)
                 out.append(res)
             except FIT_ERRORS as e:  # pragma: no cover - the bound of a finite fit
                 out.append(e)

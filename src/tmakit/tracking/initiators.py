@@ -27,8 +27,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..batch import estimate
-from ..batch.ml import plausible_chi2
+from ..batch.ml import MaximumLikelihood, plausible_chi2
 from ..core import chi2
 from ..core.arrays import Array
 from ..data import MeasurementSet
@@ -975,9 +974,9 @@ class _Windows:
         if near is not None:
             state = near.motion.states(near.estimate, np.array([time]))[0]
             init = np.concatenate([state[:self.dim], state[3:3 + self.dim]])
-        try:
-            result = estimate(rows, ConstantVelocity(self.dim, time), init=init,
-                              options=self.options)
+        try:  # (a start reports no separated solutions: not looked for)
+            result = MaximumLikelihood(init, self.options, solutions=False).fit(
+                rows, ConstantVelocity(self.dim, time))
         except ValueError as e:  # e.g. no finite starting point on a tiny window
             return WindowEstimate(k, time, len(rows), None, np.inf, f"failed: {e}")
         rel = (_relative_std(result, rows, time, self.dim)
