@@ -107,6 +107,26 @@ def test_one_solution_reports_itself_alone():
     assert not res.region_contains(far, meas)
 
 
+def test_a_fit_without_the_search_for_solutions_is_the_same_fit():
+    """``MaximumLikelihood(solutions=False)``: the same fit, no separated solutions looked for.
+
+    (gu2007 seed 4, the first 20 s: the fit has 4 separated solutions; the tracker's window
+    search fits this way.)
+    """
+    from tmakit.batch.ml import MaximumLikelihood
+    from tmakit.motion import ConstantVelocity
+
+    meas = tk.load_scenario("gu2007").simulate(rng=4)
+    rows = meas.take(meas.time <= meas.time.min() + 20.0)
+    motion = ConstantVelocity(2, float(rows.time.max()))
+    full = MaximumLikelihood().fit(rows, motion)
+    bare = MaximumLikelihood(solutions=False).fit(rows, motion)
+    assert len(full.solutions) == 4 and bare.solutions == []
+    assert bare.status == full.status and bare.chi2 == full.chi2
+    np.testing.assert_array_equal(bare.estimate, full.estimate)
+    np.testing.assert_array_equal(bare.covariance, full.covariance)
+
+
 def test_the_test_keeps_equal_fits_once_and_drops_improbable_ones(ta_dummy):
     """The same fit twice is one solution; a fit far worse than the best is no solution."""
     meas, res = ta_dummy
