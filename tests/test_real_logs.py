@@ -217,10 +217,21 @@ def test_epoch_and_iso_clock_times():
     assert (t[0] - t[2]) == 250_000_000 and (t[1] - t[2]) == 500_000_000
 
 
+def test_iso_clock_times_beyond_the_nanosecond_years_are_refused_as_cells():
+    """pandas keeps 2500 and 1500 at microseconds; they were pandas' 'Out of bounds' error."""
+    t, bad = parse_clock_times(["2026-05-04T09:30:00Z", "2500-05-04T09:30:03Z",
+                                "1500-05-04T09:30:03Z", "2199-12-31T23:59:59Z"])
+    assert bad.tolist() == [False, True, True, False]
+    assert t[3] - t[0] > 0
+
+
 @pytest.mark.parametrize(("edit", "expect"), [
     (lambda s: s.replace("2026-05-04T09:30:03.000Z", "09h30"),
      "row 4 (line 5), column 'utc': expected an ISO-8601 time or epoch seconds (since "
      "1970-01-01 UTC) between 1970 and 2200, found '09h30'"),
+    (lambda s: s.replace("2026-05-04T09:30:03.000Z", "2500-05-04T09:30:03Z"),
+     "row 4 (line 5), column 'utc': expected an ISO-8601 time or epoch seconds (since "
+     "1970-01-01 UTC) between 1970 and 2200, found '2500-05-04T09:30:03Z'"),
     (lambda s: s.replace(",47.95", ",97.95", 1),
      "row 1 (line 2), column 'lat': expected a latitude within [-90, 90] deg, found 97.95"),
     (lambda s: s.replace("rssi_dbm", "rssi"), "column 'rssi_dbm' (power in dBm) is missing"),
