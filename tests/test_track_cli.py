@@ -462,6 +462,9 @@ def test_track_of_a_window_equals_the_track_of_the_rows_cut_by_hand(obs, tmp_pat
 @pytest.mark.parametrize(("window", "message"), [
     (["--from", "5000", "--to", "6000"], "--from/--to: no measurement between 5000.0 and "
                                          "6000.0 s"),
+    (["--from", "5000"], "--from 5000 (5000 s): no measurement at or after it (the file "
+                         "covers 1 .. 600 s)"),
+    (["--to", "-5"], "--to -5 (-5 s): no measurement at or before it"),
     (["--from", "400", "--to", "100"], "--from 400 is after --to 100"),
     (["--from", "noon"], "--from 'noon': expected seconds"),
     (["--to", "12:30"], "--to '12:30': a clock time needs the file's time origin"),

@@ -527,8 +527,11 @@ def select_window(meas: Any, start: str | None, stop: str | None) -> Any:
     keep = ((meas.time >= (t_from if t_from is not None else -float("inf")))
             & (meas.time <= (t_to if t_to is not None else float("inf"))))
     if int(keep.sum()) == 0:
-        raise fail(f"--from/--to: no measurement between {t_from} and {t_to} s (the file "
-                   f"covers {meas.time.min():g} .. {meas.time.max():g} s)")
+        where = (f"--from {start} ({t_from:g} s): no measurement at or after it" if t_to is None
+                 else f"--to {stop} ({t_to:g} s): no measurement at or before it"
+                 if t_from is None else
+                 f"--from/--to: no measurement between {t_from} and {t_to} s")
+        raise fail(f"{where} (the file covers {meas.time.min():g} .. {meas.time.max():g} s)")
     return meas.take(keep)
 
 
