@@ -303,6 +303,23 @@ def test_a_clutter_first_bearing_is_rejected_by_the_innovations_after_it(name):
     assert last.times[0] == meas.time[2] and len(last.extra.start["rejected"]) == 2
 
 
+def test_rows_of_other_kinds_before_the_first_bearing_are_left_out_and_said(tmp_path):
+    """A range before the first bearing ended every first-bearing start with the filter's
+    'measurements start at t=-30.0 s, before the filter's prior time t=0.0 s'."""
+    meas, _ = moderate_run(6)
+    early = MeasurementSet.from_si(np.array([-30.0]), ["own ship"], ["range"],
+                                   np.array([5000.0]), np.array([50.0]), meas.sensor_state[:1])
+    both = MeasurementSet.concatenate([early, meas])
+    tr = tk.track(both, "gsf", q_density=Q_DENSITY, bearing_prior=MODERATE.prior())
+    assert tr.times[0] == meas.time[0] and tr.extra.start["unused_rows"] == 1
+    path = tmp_path / "range_first.csv"
+    tk.write_measurements(both, path)
+    result = runner.invoke(app, ["track", str(path), "--filter", "gsf", "--range-prior",
+                                 "499:10990", "--speed-prior", "5.14", "--rows", "2"])
+    assert result.exit_code == 0, result.output
+    assert "1 row of other kinds before it not used" in " ".join(result.output.split())
+
+
 def test_exact_posterior_reference_agrees_with_an_independent_sampler():
     """The exact posterior behind the docs' "no estimator from this prior reaches the bound":
     first_bearing.py's resample-move and first_bearing_exact.py's adaptive importance

@@ -518,7 +518,10 @@ def start_sentence(tr: Any) -> str:
                    "--speed-prior MAX for this emitter")
                 + (f"; {len(s['rejected'])} earlier bearings rejected by the innovations "
                    f"that followed them (from t = {s['rejected'][0]['time']:g} s)"
-                   if s.get("rejected") else ""))
+                   if s.get("rejected") else "")
+                + (f"; {s['unused_rows']} row{'s' * (s['unused_rows'] != 1)} of other kinds "
+                   "before it not used (a filter started at a bearing takes what follows it)"
+                   if s.get("unused_rows") else ""))
     text = (f"start: batch ML estimate over the first {s['window']} measurement times "
             f"({s['rows']} rows, t <= {s['time']:g} s), {s['status']}, position std "
             f"{s['relative_position_std']:.1%} of the range")

@@ -405,6 +405,8 @@ class BearingStart:
         The innovation test of the start.
     rejected : tuple of Rejection
         Earlier bearings whose starts the test rejected (window 1: one bearing).
+    unused : int
+        Rows of other kinds before ``time``, which a filter started there cannot take.
     """
 
     method: ClassVar[str] = "first-bearing"
@@ -418,6 +420,7 @@ class BearingStart:
     first: FirstBearing
     confirmation: Confirmation | None = None
     rejected: tuple[Rejection, ...] = ()
+    unused: int = 0
 
     def as_dict(self) -> dict[str, Any]:
         """Return the JSON form.
@@ -426,7 +429,8 @@ class BearingStart:
         -------
         dict
             ``method`` (``"first-bearing"``), ``time`` (s), ``bearing_deg``, ``row``, ``prior``,
-            ``mean`` and ``std`` by name (m, m/s), ``confirmation`` and ``rejected``.
+            ``mean`` and ``std`` by name (m, m/s), ``confirmation``, ``rejected`` and
+            ``unused_rows`` (rows of other kinds before the start).
         """
         std = [math.sqrt(max(float(v), 0.0)) for v in self.covariance.diagonal()]
         return {"method": self.method, "time": self.time,
@@ -436,7 +440,7 @@ class BearingStart:
                 "std": dict(zip(self.state_names, std, strict=True)),
                 "confirmation": None if self.confirmation is None
                 else self.confirmation.as_dict(),
-                "rejected": [r.as_dict() for r in self.rejected]}
+                "rejected": [r.as_dict() for r in self.rejected], "unused_rows": self.unused}
 
 
 #: What an initiator returns.
@@ -1258,6 +1262,7 @@ class BearingInitiator(Initiator):
         """
         _check_nuisance(meas, setup.options, self.nuisance)
         rejected: list[Rejection] = []
+        given = meas
         while True:
             try:
                 first = first_bearing(meas)
@@ -1268,15 +1273,17 @@ class BearingInitiator(Initiator):
                                  ) from None
             filt = setup.from_first_bearing(self.prior, first, self.nuisance)
             mean, cov = filt.state, filt.covariance
-            rest = np.flatnonzero(np.arange(len(meas)) != first.row)
+            rest = np.flatnonzero((np.arange(len(meas)) != first.row)
+                                  & (meas.time >= first.time))  # a filter runs forward
             after = filt.run(meas.take(rest))
             check = _confirmation(after, MIN_WINDOW)
             if not self.confirm or check.p_value >= self.confirm_p_value:
                 break
             rejected.append(Rejection(1, first.time, check))
             meas = meas.take(rest)
+        unused = int(np.count_nonzero((given.time < first.time) & ~given.kind_mask("bearing")))
         start = BearingStart(first.time, mean, cov, dict(self.nuisance), setup.state_names,
-                             self.prior, first, check, tuple(rejected))
+                             self.prior, first, check, tuple(rejected), unused)
         return Initiation(start, _prepend(after, first.time, mean, cov, setup.state_names))
 
 
