@@ -301,6 +301,10 @@ def test_a_clutter_first_bearing_is_rejected_by_the_innovations_after_it(name):
     last = tk.track(meas.take(np.arange(3)), name, initiator=BearingInitiator(
         MODERATE.prior(), confirm_p_value=1.0))
     assert last.times[0] == meas.time[2] and len(last.extra.start["rejected"]) == 2
+    with pytest.raises(TrackingError,
+                       match=r"does the prior \(range 499\.\.10990 m, speed <= 5\.14 m/s\) hold"):
+        tk.track(meas.take(np.arange(3)), name, initiator=BearingInitiator(
+            MODERATE.prior(), confirm_p_value=1.01))  # even the last bearing's start
 
 
 def test_rows_of_other_kinds_before_the_first_bearing_are_left_out_and_said(tmp_path):

@@ -1269,8 +1269,9 @@ class BearingInitiator(Initiator):
             except ValueError as e:
                 raise StartError(str(e) if not rejected else "every bearing's start was "
                                  "rejected by the innovations that followed it: " + "; ".join(
-                                     r.describe() for r in rejected[:3]), "bearing_prior"
-                                 ) from None
+                                     r.describe() for r in rejected[:3])
+                                 + f"; does the prior ({self.prior.describe()}) hold this "
+                                 "emitter?", "bearing_prior") from None
             filt = setup.from_first_bearing(self.prior, first, self.nuisance)
             mean, cov = filt.state, filt.covariance
             rest = np.flatnonzero((np.arange(len(meas)) != first.row)
