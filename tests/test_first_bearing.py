@@ -114,7 +114,8 @@ def test_bearing_prior_forms_have_the_same_moments():
     assert ranges.min() >= 500.0 * 0.99 and ranges.max() <= 20_000.0 * 1.01
     assert np.hypot(draws[:, 2], draws[:, 3]).max() <= 8.0
     for bad in ((1000.0, 500.0, 5.0), (0.0, 500.0, 5.0), (100.0, 500.0, 0.0),
-                (100.0, math.inf, 5.0)):
+                (100.0, math.inf, 5.0), (1.0, 1e12, 5.0), (1e-9, 1e3, 5.0), (1e3, 1e4, 1e-300),
+                (1e3, 1e4, 5.0, (0.0, 1e300)), (1e3, 1e4, 5.0, (math.nan, 1.0))):
         with pytest.raises(ValueError, match="prior"):
             BearingPrior(*bad)
 
@@ -272,9 +273,22 @@ def test_command_starts_at_the_first_bearing_and_smooths(obs):
 
 
 @pytest.mark.parametrize(("args", "message"), [
-    (["--range-prior", "5000:100"], "--range-prior '5000:100': expected 0 < MIN < MAX"),
+    (["--range-prior", "5000:100"], "--range-prior '5000:100': expected MIN:MAX with 1 <= MIN "
+                                    "< MAX <= 1e+09 (m)"),
     (["--range-prior", "far"], "--range-prior 'far': expected MIN:MAX"),
-    (["--speed-prior", "-3"], "--speed-prior -3.0: expected a speed > 0"),
+    # a range to 7 AU was taken (its std in the millions of km); a MIN of 1e-9 m ended with
+    # 'Matrix is not positive definite.', 1e-300 m with an internal error
+    (["--range-prior", "1:1e12"], "--range-prior '1:1e12': expected MIN:MAX with 1 <= MIN"),
+    (["--range-prior", "1e-9:1e9"], "--range-prior '1e-9:1e9': expected MIN:MAX with 1 <= MIN"),
+    (["--range-prior", "1e-300:1"], "--range-prior '1e-300:1': expected MIN:MAX with 1 <= MIN"),
+    (["--speed-prior", "-3"], "--speed-prior -3.0: expected a largest speed within [0.001, "
+                              "10000] m/s"),
+    # 'the prior covariance must be positive definite', no option named
+    (["--speed-prior", "1e-300"], "--speed-prior 1e-300: expected a largest speed within"),
+    (["--speed-prior", "2e4"], "--speed-prior 20000.0: expected a largest speed within"),
+    # an internal error (OverflowError in the height's variance)
+    (["--height-prior=-1e300:1e300"], "--height-prior '-1e300:1e300': expected MIN:MAX with "
+                                      "-1e+09 <= MIN <= MAX <= 1e+09 (m)"),
     (["--q-density", "x"], "--q-density 'x': expected one number"),
     (["--filter", "ekf", "--component", "ckf"], "--component applies only to --filter gsf"),
     (["--filter", "pf", "--seed", "1", "--lag", "3"], "smoother is fixed-interval"),

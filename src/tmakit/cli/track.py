@@ -69,13 +69,13 @@ QDensityOption = Annotated[str, typer.Option(
                         "[T^2/2, T]] per axis, added to --q's")]
 RangePriorOption = Annotated[str | None, typer.Option(
     "--range-prior", help="start at the first bearing: the emitter's range then lies in "
-                          "MIN:MAX (m); default 500:50000 for --filter gsf")]
+                          "MIN:MAX (m, within 1..1e9); default 500:50000 for --filter gsf")]
 SpeedPriorOption = Annotated[float | None, typer.Option(
     "--speed-prior", help="start at the first bearing: the largest plausible speed (m/s, "
-                          "course unknown); default 20")]
+                          "0.001..10000; course unknown); default 20")]
 HeightPriorOption = Annotated[str | None, typer.Option(
     "--height-prior", help="start at the first bearing, 3-D: the emitter's height interval "
-                           "MIN:MAX (m); default 0:12000")]
+                           "MIN:MAX (m, within +-1e9); default 0:12000")]
 ComponentOption = Annotated[str, typer.Option(
     help="the component filter of gsf (the Gaussian sum) or imm: ekf, ukf or ckf "
          "(cubature)")]
@@ -678,19 +678,20 @@ def parse_bearing_prior(range_prior: str | None, speed_prior: float | None,
         raise fail("--range-prior, --speed-prior and --height-prior start the track at the "
                    "first bearing; they cannot be used with --prior or --init-window")
     from ..filters import BearingPrior
-    from ..filters.bearing_prior import DEFAULT_HEIGHT, DEFAULT_RANGE, DEFAULT_SPEED
+    from ..filters.bearing_prior import (
+        DEFAULT_HEIGHT,
+        DEFAULT_RANGE,
+        DEFAULT_SPEED,
+        prior_problems,
+    )
 
-    given = tuple(n for n, v in (("range", range_prior), ("speed", speed_prior),
-                                 ("height", height_prior)) if v is not None)
+    texts = {"range": range_prior, "speed": speed_prior, "height": height_prior}
+    given = tuple(n for n, v in texts.items() if v is not None)
     lo, hi = DEFAULT_RANGE if range_prior is None else _interval(range_prior, "--range-prior")
     height = DEFAULT_HEIGHT if height_prior is None else _interval(height_prior, "--height-prior")
-    if not (0 < lo < hi):
-        raise fail(f"--range-prior {range_prior!r}: expected 0 < MIN < MAX (m)")
-    if height[0] > height[1]:
-        raise fail(f"--height-prior {height_prior!r}: expected MIN <= MAX (m)")
     speed = DEFAULT_SPEED if speed_prior is None else float(speed_prior)
-    if not (speed > 0 and speed < 1e4):
-        raise fail(f"--speed-prior {speed_prior}: expected a speed > 0 m/s (and below 10 km/s)")
+    for name, expected in prior_problems((lo, hi), speed, height).items():
+        raise fail(f"--{name}-prior {texts[name]!r}: {expected}")
     return BearingPrior(lo, hi, speed, height, given)
 
 
