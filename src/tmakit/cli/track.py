@@ -387,7 +387,7 @@ def run_track(meas: Any, filter_name: str, keywords: dict[str, Any], smooth: boo
     except tracking.TrackingError as e:
         raise tracking_failure(e) from None
     except ValueError as e:
-        raise fail(str(e)) from None
+        raise fail(flagged(str(e))) from None
     return tr
 
 
@@ -780,7 +780,14 @@ MIN_PARTICLES = 7
 TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--prior-std",
                "max_relative_std": "--start-std", "tracker": "--filter",
                "q_density": "--q-density", "bearing_prior": "--range-prior",
-               "init_window": "--init-window"}
+               "init_window": "--init-window", "model_q": "--model-q", "turn_rates": "--turn-rate",
+               "rate_noise": "--turn-rate-noise", "transition": "--transition"}
+
+
+def flagged(message: str) -> str:
+    """Name the flag in a library message that starts with its keyword (``model_q must ...``)."""
+    keyword, _, rest = message.partition(" ")
+    return f"{TRACK_FLAGS[keyword]}: {rest}" if keyword in TRACK_FLAGS and rest else message
 
 
 def tracking_failure(e: Any) -> typer.Exit:
