@@ -968,13 +968,19 @@ class GrowingFiles:
         return any([s.poll() for s in self.sources])  # (every source polled)
 
 
+#: The shortest and longest wait between looks at a followed file (s): more often is a busy
+#: loop, less often than a day is no following (and beyond time_t, an internal error).
+FOLLOW_INTERVAL_S = (0.01, 86_400.0)
+
+
 def watch(paths: list[Path], fmt: str | None, update: Callable[[dict[Path, Path]], bool],
            interval: float, max_updates: int | None, say: Any) -> None:
     """Run ``update`` on the snapshots each time the files grow, until told to stop."""
     from .guard import Terminated
 
-    if not interval > 0:
-        raise fail(f"--interval {interval:g}: expected seconds > 0")
+    if not FOLLOW_INTERVAL_S[0] <= interval <= FOLLOW_INTERVAL_S[1]:
+        raise fail(f"--interval {interval:g}: expected seconds within [{FOLLOW_INTERVAL_S[0]:g}, "
+                   f"{FOLLOW_INTERVAL_S[1]:g}] (a day)")
     if max_updates is not None and max_updates < 1:
         raise fail(f"--max-updates {max_updates}: expected 1 or more")
     for p in paths:
