@@ -778,7 +778,8 @@ def check_sums(sums: bool, filter_name: str, as_json: bool, follow: bool) -> Non
 MIN_PARTICLES = 7
 #: The flags of `tma track` for the library parameters its errors name.
 TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--prior-std",
-               "max_relative_std": "--start-std", "tracker": "--filter",
+               "prior_time": "--prior-time", "max_relative_std": "--start-std",
+               "tracker": "--filter",
                "q_density": "--q-density", "bearing_prior": "--range-prior",
                "init_window": "--init-window", "model_q": "--model-q", "turn_rates": "--turn-rate",
                "rate_noise": "--turn-rate-noise", "transition": "--transition"}

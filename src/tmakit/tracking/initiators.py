@@ -31,6 +31,7 @@ from ..batch import estimate
 from ..batch.ml import plausible_chi2
 from ..core import chi2
 from ..core.arrays import Array
+from ..core.units import REACH_M, SPEED_OF_LIGHT
 from ..data import MeasurementSet
 from ..filters import BearingPrior, FirstBearing, Track, first_bearing
 from ..measurements import model_for
@@ -38,6 +39,7 @@ from ..motion import ConstantVelocity
 from ..observation import NoiseModel, ObservationModel
 from ..observation.groups import time_blocks
 from ..results.estimate import EstimateResult
+from ..rules import time_problem
 from .errors import MissingNuisanceError, StartError, TrackingError
 from .filter_setup import FilterSetup, state_vector
 
@@ -1204,18 +1206,33 @@ class PriorInitiator(Initiator):
         Raises
         ------
         TrackingError
-            A prior component missing, unknown or not finite, or a std <= 0.
+            A prior component missing, unknown, not finite or beyond the rules' reach (1e9 m,
+            light's speed), a std <= 0 or beyond that reach, or a prior time after the first
+            measurement or more than 100 spans of the data before it.
         MissingNuisanceError
             Nuisance values the measurement kinds need are not given.
         """
         names = setup.state_names
         mean = state_vector(self.mean, names, "prior")
         std = state_vector(self.std, names, "prior_std")
-        if np.any(std <= 0):
-            raise TrackingError(f"prior_std: standard deviations must be > 0, got "
+        reach = np.where(np.arange(len(names)) < setup.dim, REACH_M, SPEED_OF_LIGHT)
+        if np.any(np.abs(mean) > reach):
+            raise TrackingError(f"prior: expected positions within {REACH_M:g} m of the origin "
+                                f"and speeds below light's, got {mean.tolist()}", "prior")
+        if np.any(std <= 0) or np.any(std > reach):
+            raise TrackingError(f"prior_std: standard deviations must be > 0 and at most "
+                                f"{REACH_M:g} m ({SPEED_OF_LIGHT:.0f} m/s for a velocity), got "
                                 f"{std.tolist()}", "prior_std")
         _check_nuisance(meas, setup.options, self.nuisance)
-        t0 = float(np.min(meas.time)) if self.time is None else self.time
+        first = float(np.min(meas.time))
+        t0 = first if self.time is None else self.time
+        if t0 > first:
+            raise TrackingError(f"{{prior_time}} {t0:g}: after the first measurement (t = "
+                                f"{first:g} s); a filter runs forward from its prior: give a "
+                                "time at or before it, or leave out the rows before it",
+                                "prior_time", ["prior_time"])
+        if (far := time_problem(t0, meas.time, "{prior_time}")) is not None:
+            raise TrackingError(far, "prior_time", ["prior_time"])
         cov = np.diag(std**2)
         filt = setup.from_prior(mean, cov, t0, self.nuisance)
         start = PriorStart(t0, mean, std, cov, dict(self.nuisance), names)
