@@ -182,8 +182,11 @@ def check_dim(dim: int | None) -> int | None:
 def model_options(drift: bool, free_exponent: bool, propagation_speed: float | None = None
                   ) -> dict[str, dict[str, object]]:
     """Return the model options of ``--drift``, ``--free-exponent`` and ``--propagation-speed``."""
-    if propagation_speed is not None and not propagation_speed > 0:
-        raise fail(f"--propagation-speed {propagation_speed:g}: expected a speed > 0 (m/s)")
+    from ..core.units import SPEED_OF_LIGHT
+    from ..measurements.frequency import PROPAGATION_SPEED
+
+    if propagation_speed is not None and not 0 < propagation_speed <= SPEED_OF_LIGHT:
+        raise fail(f"--propagation-speed {propagation_speed:g}: {PROPAGATION_SPEED}")
     speed = {} if propagation_speed is None else {"propagation_speed": propagation_speed}
     return {"frequency": {"drift": drift, **speed},
             "power": {"exponent": None if free_exponent else 2.0}}
