@@ -9,6 +9,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.units import REACH_M, SPEED_OF_LIGHT
 from ..data import MeasurementSet
 from ..motion import MotionModel
 from ..results.estimate import EstimateResult
@@ -44,13 +45,24 @@ def theta_from_init(motion: MotionModel, init: Mapping[str, float] | ArrayLike, 
                     named_only: bool = False) -> NDArray[np.float64]:
     """Give a start ``(p,)`` from names (``named_only``: others ignored) or a vector, checked."""
     if not isinstance(init, np.ndarray) and isinstance(init, Mapping):  # (an ABC's test: slow)
-        return motion.theta({k: v for k, v in init.items() if k in motion.param_names}
-                            if named_only else init)
-    theta = np.asarray(init, dtype=float).reshape(-1)
-    if theta.shape != (motion.n_params,):
-        raise ValueError(f"{prefix}init must give {motion.n_params} values "
-                         f"({', '.join(motion.param_names)})")
+        theta = motion.theta({k: v for k, v in init.items() if k in motion.param_names}
+                             if named_only else init)
+    else:
+        theta = np.asarray(init, dtype=float).reshape(-1)
+        if theta.shape != (motion.n_params,):
+            raise ValueError(f"{prefix}init must give {motion.n_params} values "
+                             f"({', '.join(motion.param_names)})")
+    far = [f"{n}={v:g}" for n, v in zip(motion.param_names, theta.tolist(), strict=True)
+           if n in _REACH and not abs(v) <= _REACH[n]]
+    if far:
+        raise ValueError(f"{prefix}init {', '.join(far)}: expected positions within "
+                         f"{REACH_M:g} m of the origin and speeds below light's (m, m/s)")
     return theta
+
+
+#: The largest start value of a position or a speed (m, m/s): the rules' reach.
+_REACH = {**dict.fromkeys(("x", "y", "z"), REACH_M),
+          **dict.fromkeys(("vx", "vy", "vz", "speed"), SPEED_OF_LIGHT)}
 
 
 def refuse_manoeuvre_options(given: Mapping[str, object], motion: object) -> None:
