@@ -18,7 +18,7 @@ from ..core.keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study
 from ..planning import MissionPlanner
 from ..planning.policies import MissionPolicy, Policy, TrackPolicy, passive
 from ..planning.setup import PlanningSetup, load_planning
-from ..scenario.planning_table import MAX_DECISIONS, PLANNERS
+from ..scenario.planning_table import MAX_DECISIONS, PLANNERS, decisions_text
 from .closed_loop import (
     MIN_RUNS_INTERVAL,
     ClosedLoopStudy,
@@ -256,9 +256,9 @@ def _changes(setup: PlanningSetup, duration: float | None, particles: int | None
                              f"of {setup.interval:g} s; got {duration} s")
         changes["steps"] = round(ratio)
         if changes["steps"] > MAX_DECISIONS:
-            raise ValueError(f"duration {duration:g} s: {changes['steps']:,} decisions of "
-                             f"{setup.interval:g} s per run, more than the limit of "
-                             f"{MAX_DECISIONS:,}")
+            raise ValueError(f"duration {duration:g} s: {decisions_text(changes['steps'])} "
+                             f"decisions of {setup.interval:g} s per run, more than the limit "
+                             f"of {MAX_DECISIONS:,}")
     if particles is not None:
         changes["particles"] = particles
     if tracker is not None:
