@@ -9,9 +9,9 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.units import REACH_M, SPEED_OF_LIGHT
 from ..data import MeasurementSet
 from ..motion import MotionModel
+from ..motion.base import WITHIN_REACH
 from ..results.estimate import EstimateResult
 
 #: A starting point: motion parameters by name, a vector in ``param_names`` order, or None.
@@ -52,17 +52,9 @@ def theta_from_init(motion: MotionModel, init: Mapping[str, float] | ArrayLike, 
         if theta.shape != (motion.n_params,):
             raise ValueError(f"{prefix}init must give {motion.n_params} values "
                              f"({', '.join(motion.param_names)})")
-    far = [f"{n}={v:g}" for n, v in zip(motion.param_names, theta.tolist(), strict=True)
-           if n in _REACH and not abs(v) <= _REACH[n]]
-    if far:
-        raise ValueError(f"{prefix}init {', '.join(far)}: expected positions within "
-                         f"{REACH_M:g} m of the origin and speeds below light's (m, m/s)")
+    if far := motion.beyond_reach(theta):
+        raise ValueError(f"{prefix}init {', '.join(far)}: {WITHIN_REACH}")
     return theta
-
-
-#: The largest start value of a position or a speed (m, m/s): the rules' reach.
-_REACH = {**dict.fromkeys(("x", "y", "z"), REACH_M),
-          **dict.fromkeys(("vx", "vy", "vz", "speed"), SPEED_OF_LIGHT)}
 
 
 def refuse_manoeuvre_options(given: Mapping[str, object], motion: object) -> None:

@@ -87,7 +87,7 @@ def crlb(
             raise fail("--sensor-position-sigma: the bound with sensor errors takes the "
                        "nuisance as unknown; leave --known-nuisance out")
         bound, loss = with_sensor_errors(bound, meas, opts, sensor_position_sigma)
-    derived = None if at is None else derived_at(bound, at)
+    derived = None if at is None else derived_at(bound, checked_at(at, meas))
     if derived is not None and bound.rank == len(bound.parameters) and not all(
             math.isfinite(derived["ellipse_90"][k]) for k in ("east", "north", "major")):
         raise fail(f"--at {at:g}: the bound overflows so far from the measurement times; "
@@ -171,6 +171,17 @@ def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
         opts.setdefault("power", {})["exponent"] = None
     with failing(f"scenario {source}: "):  # e.g. the truth crosses a sensor at a measurement time
         return compute(scn, known_nuisance=known_nuisance, options=opts), scn, opts
+
+
+def checked_at(at: float, meas: Any) -> float:
+    """Refuse an ``--at`` far from the data as ``tma estimate`` does (rules.time_problem)."""
+    from ..rules import time_problem
+    from ..scenario import Scenario
+
+    times = (meas.simulate(rng=0, noise=False) if isinstance(meas, Scenario) else meas).time
+    if (far := time_problem(at, times, "--at")) is not None:
+        raise fail(far)
+    return at
 
 
 def derived_at(bound: Any, at: float) -> dict[str, Any]:
