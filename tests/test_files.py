@@ -384,6 +384,13 @@ def test_windows_line_ends_and_byte_order_mark(tmp_path):
     assert ms.metadata == {"site": "north"} and len(ms) == 3
 
 
+def test_cells_padded_with_spaces_read_as_their_text(tmp_path):
+    """' bearing ' was refused as no kind, where the sensor's and the numbers' padding read."""
+    padded = [",".join(f" {c} " for c in r.split(",")) for r in GOOD_ROWS]
+    ms = read_measurements(write_csv(tmp_path, padded))
+    assert list(ms.kinds) == ["bearing", "frequency", "power", "range_difference"]
+
+
 def test_ragged_row_is_refused(tmp_path):
     message = refused(write_csv(tmp_path, [GOOD_ROWS[0], GOOD_ROWS[1] + ",extra"]))
     assert "row 2 (line 4): expected 10 fields" in message

@@ -673,7 +673,7 @@ def check_cells(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
         record("sensor", np.array([s.strip() == "" for s in text["sensor"]], dtype=bool),
                "a sensor id (text)")
     if "kind" in text:
-        record("kind", ~np.isin(text["kind"].astype(str), list(KINDS)),
+        record("kind", ~np.isin(kind.astype(str), list(KINDS)),  # (stripped, as it is read)
                f"one of the kinds {', '.join(KINDS)}")
     for c in ("time", "value", "sigma", *SENSOR_STATE_COLUMNS, *GEO_COLUMNS):
         if c in num:
