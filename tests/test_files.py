@@ -384,6 +384,28 @@ def test_windows_line_ends_and_byte_order_mark(tmp_path):
     assert ms.metadata == {"site": "north"} and len(ms) == 3
 
 
+def test_a_header_in_another_case_is_told_to_rename_it(tmp_path):
+    """'TIME,SENSOR,...' was told 'none of the columns of tmakit's measurement file: a wide
+    log ...'; an extra 'Sensor_Z' column was dropped without a word (its heights read as 0)."""
+    upper = refused(write_csv(tmp_path, GOOD_ROWS, header=HEADER.upper()))
+    assert ("column names are lower case in tmakit's measurement file: rename 'TIME' to "
+            "'time', 'SENSOR' to 'sensor'") in upper and "wide log" not in upper
+    z = write_csv(tmp_path, [r + ",3" for r in GOOD_ROWS], header=HEADER + ",Sensor_Z",
+                  name="z.csv")
+    assert "rename 'Sensor_Z' to 'sensor_z'" in refused(z)
+    import pyarrow.parquet as parquet
+
+    pq = tmp_path / "z.parquet"
+    write_measurements(read_measurements(write_csv(tmp_path, GOOD_ROWS, name="good.csv")), pq)
+    table = parquet.read_table(pq)
+    parquet.write_table(table.rename_columns(
+        ["Time" if n == "time" else n for n in table.column_names]), pq)
+    assert "rename 'Time' to 'time'" in refused(pq)
+    kept = write_csv(tmp_path, [r + ",x" for r in GOOD_ROWS], header=HEADER + ",Note",
+                     name="note.csv")
+    assert len(read_measurements(kept)) == len(GOOD_ROWS)  # not a column of the format
+
+
 def test_cells_padded_with_spaces_read_as_their_text(tmp_path):
     """' bearing ' was refused as no kind, where the sensor's and the numbers' padding read."""
     padded = [",".join(f" {c} " for c in r.split(",")) for r in GOOD_ROWS]

@@ -32,6 +32,7 @@ from .checker import (
     Problems,
     RawTable,
     SensorRecord,
+    case_problem,
     check_columns,
     check_table,
     file_columns,
@@ -208,7 +209,8 @@ def _stream_header(path: Path, start: int) -> list[str] | None:
         return None
     problems = Problems(RawTable(None, {}, None))
     check_columns(stripped, [], problems)  # (the kinds' own needs are checked once read)
-    if (problems.file or "ref_sensor" in stripped or "carrier" in stripped  # the checker's
+    if (problems.file or case_problem(stripped) or "ref_sensor" in stripped
+            or "carrier" in stripped  # the checker's
             or (any(c in stripped for c in REF_STATE_COLUMNS) and "time_ref" not in stripped)):
         return None
     return names
@@ -518,6 +520,8 @@ def load_csv(path: Path, as_text: bool = False) -> RawTable:
     body = data[start:] if start else data
     del data
     names, raw_names, lines = _record_lines(path, body, pre_lines)
+    if (cased := case_problem(names)) is not None:
+        raise MeasurementFileError(path, [cased])
     try:
         frame = _read_table(body, raw_names, as_text)
     except (pa.ArrowException, ValueError) as e:
