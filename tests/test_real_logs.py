@@ -6,6 +6,8 @@ few seeds (the full figures: benchmarks/real_logs_replay.py and benchmarks/real_
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from sample_logs import drone_sample, gpx_nmea_sample, replay_sample
@@ -249,6 +251,23 @@ def test_mapping_errors_name_the_key(tmp_path):
     mapping.write_text(mapping.read_text().replace('unit = "dBm"', 'unit = "mW"'))
     with pytest.raises(MeasurementFileError, match=r"measurement\.0: unit 'mW' of power: "
                        "expected one of dBm, dBW"):
+        tk.read_measurements(log, format="wide", mapping=mapping)
+
+
+def test_a_blank_sensor_id_is_refused_by_key_or_by_cell(tmp_path):
+    """sensor = "" and an empty cell of a sensor_column gave sets with sensor '', which
+    tma import wrote to a file that tmakit then refused."""
+    log, mapping, _ = drone_files(tmp_path)
+    text = mapping.read_text()
+    mapping.write_text(text.replace('sensor = "drone"', 'sensor = ""'))
+    with pytest.raises(MeasurementFileError, match="sensor: expected a sensor id"):
+        tk.read_measurements(log, format="wide", mapping=mapping)
+    mapping.write_text(text.replace('sensor = "drone"', 'sensor_column = "rx"'))
+    lines = log.read_text().splitlines()
+    log.write_text("\n".join([lines[0] + ",rx"] + [
+        line + ("," if k == 3 else ",d1") for k, line in enumerate(lines[1:], 1)]) + "\n")
+    with pytest.raises(MeasurementFileError, match=re.escape(
+            "row 3 (line 4), column 'rx': expected a sensor id (text), found an empty cell")):
         tk.read_measurements(log, format="wide", mapping=mapping)
 
 

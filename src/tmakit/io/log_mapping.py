@@ -13,7 +13,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from ..core.input_files import read_toml
 from ..measurements import KINDS
@@ -108,6 +115,13 @@ class VelocityMap(_Strict):
         return self
 
 
+def _sensor_id(name: str | None) -> str | None:
+    """Refuse a blank sensor id (a file refuses an empty ``sensor`` cell)."""
+    if name is not None and not name.strip():
+        raise ValueError(f"expected a sensor id (text), found {name!r}")
+    return name
+
+
 class MeasurementMap(_Strict):
     """One measurement column: its kind, unit and sigma (or sigma column)."""
 
@@ -119,6 +133,11 @@ class MeasurementMap(_Strict):
     reference: Literal["true", "relative"] = "true"
     ambiguous: str | None = None
     sensor: str | None = Field(default=None, min_length=1)
+
+    @field_validator("sensor")
+    @classmethod
+    def _named(cls, v: str | None) -> str | None:
+        return _sensor_id(v)
 
     @model_validator(mode="after")
     def _kind_unit(self) -> MeasurementMap:
@@ -158,6 +177,11 @@ class LogMapping(_Strict):
     altitude: Literal["ellipsoid", "msl"] | None = None
     dim: Literal[2, 3] | None = None
     measurement: list[MeasurementMap] = Field(min_length=1)
+
+    @field_validator("sensor")
+    @classmethod
+    def _named(cls, v: str) -> str:
+        return str(_sensor_id(v))
 
     @model_validator(mode="after")
     def _where(self) -> LogMapping:

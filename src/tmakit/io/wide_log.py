@@ -381,6 +381,11 @@ def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArra
     from .log_mapping import UNITS
 
     ids = _sensor_ids(tab, m)
+    if m.sensor_column and m.sensor_column in tab.frame.columns:  # (an id is text, not blank)
+        raw = tab.frame[m.sensor_column]
+        blank = (raw.isna() | (raw.astype(str).str.strip() == "")).to_numpy()
+        tab.problems += [f"{tab.where(int(k), m.sensor_column)}: expected a sensor id (text), "
+                         "found an empty cell" for k in np.flatnonzero(blank)[:25]]
     own = _column_sensors(m, metadata)
     parts: list[tuple[NDArray, ...]] = []
     where: list[str] = []
