@@ -316,7 +316,8 @@ def plan(
         help="TOML scenario file with a [planning] table, or a built-in name "
              "(plan-bearings-only)")],
     output: Annotated[Path | None, typer.Option(
-        "-o", "--output", help="write the per-step table (.csv or .parquet)")] = None,
+        "-o", "--output", help="write the per-step table (.csv or .parquet; finished chunks "
+                               "saved as they end, in NAME.parts/)")] = None,
     plot: Annotated[Path | None, typer.Option(
         help="draw the paths, the range to the target and the error against the bound "
              "(PNG, PDF, SVG)")] = None,
@@ -363,9 +364,10 @@ def plan(
             err.print(f"warning: {warning}")
         from ..montecarlo.planned import plan as run_plan
 
+        checkpoint = None if output is None else _checkpoint(output, force)
         result = run_plan(setup, runs=runs, rng=seed, duration=duration,
                           particles=particles, tracker=tracker, planner=planner,
-                          progress=not no_progress)
+                          progress=not no_progress, on_chunk=checkpoint)
     except ScenarioFileError as e:
         raise fail(str(e)) from None
     except ValueError as e:
@@ -382,7 +384,7 @@ def plan(
         print_plan_summary(result, seed)
     for warning in result.warnings():
         err.print(f"warning: {warning}")
-    write_outputs(result, output, plot, force, err if as_json else out)
+    write_outputs(result, output, plot, force, err if as_json else out, checkpoint)
 
 
 def json_summary(result: Any, seed: int) -> dict[str, Any]:
@@ -418,12 +420,15 @@ def start_warnings(setup: Any) -> list[str]:
 
 
 def write_outputs(result: Any, output: Path | None, plot: Path | None, force: bool,
-                  console: Any) -> None:
-    """Write the per-step table and the picture, saying so on ``console``."""
+                  console: Any, checkpoint: Any = None) -> None:
+    """Write the per-step table (its chunks' parts then removed) and the picture."""
     if output is not None:
         from ..io.tables import write_table
 
-        write_table(output, result.table(), force=force, what="the per-step table")
+        if checkpoint is not None:
+            checkpoint.finish(result.study, result.table())
+        else:
+            write_table(output, result.table(), force=force, what="the per-step table")
         console.print(f"wrote {output}")
     if plot is not None:
         from ..plot.tracks import plot_plan
