@@ -262,8 +262,14 @@ def gdop(
         raise fail(f"--points {points}: expected 2 to 2000 per side")
     scenario = load_scenario_or_fail(layout)
     (plot,) = check_outputs([("--plot", plot, "picture")], force)
-    with failing(f"{layout}: "):
+    try:
         result = cep_map(scenario, points, half_width, height)
+    except ValueError as e:  # the grid's options by their flags, the layout's problems by file
+        text = str(e)
+        for keyword, flag in (("half_width:", "--half-width"), ("height:", "--height")):
+            if text.startswith(keyword):
+                raise fail(flag + text.removeprefix(keyword[:-1])) from None
+        raise fail(f"{layout}: {text}") from None
     finite50 = result.cep50[np.isfinite(result.cep50)]
     finite90 = result.cep90[np.isfinite(result.cep90)]
     summary = {
