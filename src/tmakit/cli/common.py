@@ -298,6 +298,8 @@ def bearing_sigmas(text: str | float) -> float | dict[str, float]:
     out: dict[str, float] = {}
     for part in str(text).split(","):
         name, eq, value = part.partition("=")
+        if name.strip() in out:
+            raise fail(f"--bearing-sigma {text!r}: {name.strip()} is given twice")
         try:
             out[name.strip()] = float(value)
         except ValueError:
