@@ -224,11 +224,15 @@ def mapping_from_text(text: str, measures: list[str], track: str | None = None) 
     data: dict[str, Any] = {} if track is None else {"track": str(track)}
     position: dict[str, str] = {}
     velocity: dict[str, str] = {}
+    seen: set[str] = set()
     for part in (p for p in text.split(",") if p.strip()):
         key, eq, value = (s.strip() for s in part.partition("="))
         if not eq or not key or not value:
             raise MappingError(f"--map {text!r}: expected key=value pairs separated by commas "
                                f"(problem at {part!r})")
+        if key in seen:  # (the last was taken without a word)
+            raise MappingError(f"--map {text!r}: {key} is given twice")
+        seen.add(key)
         if key in _POSITION_KEYS:
             position[key] = value
         elif key in _VELOCITY_KEYS:
