@@ -413,6 +413,15 @@ def test_cells_padded_with_spaces_read_as_their_text(tmp_path):
     assert list(ms.kinds) == ["bearing", "frequency", "power", "range_difference"]
 
 
+def test_trailing_lines_of_spaces_are_blank_lines(tmp_path):
+    """An editor's trailing '  ' and tab lines were refused as records of one field."""
+    path = write_csv(tmp_path, GOOD_ROWS)
+    path.write_text(path.read_text() + "\n   \n\t\n\n")
+    assert len(read_measurements(path)) == len(GOOD_ROWS)
+    inside = write_csv(tmp_path, [GOOD_ROWS[0], "   ", *GOOD_ROWS[1:]], name="inside.csv")
+    assert "row 2 (line 4): expected 10 fields" in refused(inside)  # named where it is
+
+
 def test_ragged_row_is_refused(tmp_path):
     message = refused(write_csv(tmp_path, [GOOD_ROWS[0], GOOD_ROWS[1] + ",extra"]))
     assert "row 2 (line 4): expected 10 fields" in message

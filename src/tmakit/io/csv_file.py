@@ -519,6 +519,8 @@ def load_csv(path: Path, as_text: bool = False) -> RawTable:
     metadata, start, pre_lines = found
     body = data[start:] if start else data
     del data
+    if body[-1:].isspace():  # trailing lines of spaces are blank lines, as empty ones are
+        body = body.rstrip() + b"\n"  # (not records of one field)
     names, raw_names, lines = _record_lines(path, body, pre_lines)
     if (cased := case_problem(names)) is not None:
         raise MeasurementFileError(path, [cased])
