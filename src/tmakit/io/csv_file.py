@@ -519,8 +519,11 @@ def load_csv(path: Path, as_text: bool = False) -> RawTable:
     metadata, start, pre_lines = found
     body = data[start:] if start else data
     del data
-    if body[-1:].isspace():  # trailing lines of spaces are blank lines, as empty ones are
-        body = body.rstrip() + b"\n"  # (not records of one field)
+    end = len(body)
+    while end and body[end - 1:end].isspace():  # (the trailing blanks only: no copy of a
+        end -= 1                                  # file that ends as files do)
+    if body[end:] not in (b"", b"\n", b"\r\n"):  # trailing lines of spaces are blank lines,
+        body = body[:end] + b"\n"                 # as empty ones are (not one-field records)
     names, raw_names, lines = _record_lines(path, body, pre_lines)
     if (cased := case_problem(names)) is not None:
         raise MeasurementFileError(path, [cased])
