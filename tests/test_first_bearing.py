@@ -338,6 +338,30 @@ def test_rows_of_other_kinds_before_the_first_bearing_are_left_out_and_said(tmp_
     assert "1 row of other kinds before it not used" in " ".join(result.output.split())
 
 
+def test_a_range_the_data_leave_open_is_said_to_come_from_the_prior(tmp_path, obs):
+    """An emitter at 420 km, 67 m/s, against the default prior (500..50000 m, <= 20 m/s): the
+    gsf track ended 342 km off, 73.65 sigma, with 'trust: ok'. The data alone do not fix the
+    range there (a constant-velocity fit leaves it undetermined), so the track says its range
+    comes from the prior; where they do (the moderate scenario) it says nothing of the kind."""
+    from importlib import resources
+
+    text = (resources.files("tmakit.scenario") / "builtin" / "bearings-only-2d.toml").read_text()
+    toml = tmp_path / "far.toml"
+    toml.write_text(text.replace("truth = { x = 4000.0, y = 9000.0, vx = -6.0, vy = -3.0 }",
+                                 "truth = { x = 300000.0, y = 300000.0, vx = -60.0, vy = -30.0 }"))
+    far = tmp_path / "far.csv"
+    tk.write_measurements(tk.load_scenario(toml).simulate(rng=3), far)
+    result = runner.invoke(app, ["track", str(far), "--filter", "gsf", "--json"])
+    data = json.loads(result.stdout)
+    assert result.exit_code == 0 and data["trust"] == "warning", data["trust_reasons"]
+    said = {r["code"]: r["message"] for r in data["trust_reasons"]}
+    assert "range (1-sigma" in said["range-from-prior"]
+    assert "comes from its prior (range 500..50000 m (default)" in said["range-from-prior"]
+    near = json.loads(runner.invoke(app, ["track", str(obs), "--filter", "gsf", "--range-prior",
+                                          "499:10990", "--speed-prior", "5.14", "--json"]).stdout)
+    assert "range-from-prior" not in {r["code"] for r in near["trust_reasons"]}
+
+
 def test_exact_posterior_reference_agrees_with_an_independent_sampler():
     """The exact posterior behind the docs' "no estimator from this prior reaches the bound":
     first_bearing.py's resample-move and first_bearing_exact.py's adaptive importance

@@ -339,7 +339,7 @@ class Watch:
         answer = answer_or_fail(tr, meas, self.sensor)
         from ..results import measurement_warnings
 
-        trust = track_trust(tr, measurement_warnings(meas))
+        trust = track_trust(tr, measurement_warnings(meas) + prior_range_warnings(tr, meas))
         if self.as_json:
             import json
 
@@ -402,7 +402,8 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
     from .. import tracking
     from ..results import measurement_warnings
 
-    warnings = measurement_warnings(meas) + start_manoeuvre_warnings(tr, meas, options)
+    warnings = (measurement_warnings(meas) + start_manoeuvre_warnings(tr, meas, options)
+                + prior_range_warnings(tr, meas))
     trust = track_trust(tr, warnings)
     if as_json:  # one line: the track is long, and rich's JSON printer slow on it
         typer.echo(json.dumps({**tracking.track_dict(tr, sums=sums),
@@ -432,6 +433,48 @@ def start_manoeuvre_warnings(tr: Any, meas: Any, options: dict[str, Any] | None)
         "measurement times, from which the filter goes on)"), advice=(
         "start inside one leg (--init-window with fewer times, or --prior) or let the "
         "filter follow manoeuvres (--q)"))
+
+
+def prior_range_warnings(tr: Any, meas: Any) -> list[Any]:
+    """Warn (``range-from-prior``) when a track from a prior has a range the data leave open."""
+    from .. import tracking
+    from ..results import SanityWarning
+
+    start = tracking.start_record(tr)
+    if isinstance(start, tracking.BearingStart):
+        prior = f"its prior ({start.prior.describe()})"
+        advice = "give --range-prior and --speed-prior for this emitter"
+    elif isinstance(start, tracking.PriorStart):
+        prior, advice = "the given --prior and --prior-std", "check them"
+    else:
+        return []
+    why = data_range_verdict(meas, len(tr.state_names) // 2)
+    if not why:
+        return []
+    return [SanityWarning("range-from-prior", (
+        f"the data alone do not determine the range ({why}): the track's range comes from "
+        f"{prior}, so its ellipse holds the truth only if the emitter lies within that prior; "
+        f"{advice}, or add data from an own-ship manoeuvre across the line of sight"))]
+
+
+def data_range_verdict(meas: Any, dim: int) -> str:
+    """Say how a constant-velocity fit of the rows leaves the range open ('' if it does not)."""
+    import numpy as np
+
+    from ..batch import estimate
+    from ..motion import ConstantVelocity
+    from ..results.answers import estimate_answer
+
+    fit = "a constant-velocity fit of the same rows"
+    try:
+        result = estimate(meas, ConstantVelocity(dim, float(np.min(meas.time))))
+        if result.status == "unobservable":
+            return f"{fit} is unobservable"
+        weak = estimate_answer(result, meas).undetermined if result.status == "converged" else ()
+    except (ValueError, np.linalg.LinAlgError):  # (no verdict: the track's own checks stand)
+        return ""
+    ranged = [w for w in weak if w.startswith("range")]
+    return f"{fit} leaves the {ranged[0]} undetermined" if ranged else ""
 
 
 def track_trust(tr: Any, warnings: list[Any]) -> Any:
