@@ -223,6 +223,22 @@ def test_parquet_with_foreign_types(tmp_path):
     assert ms.metadata == {"site": "north"}
 
 
+def test_parquet_written_by_pandas_with_an_index_reads_its_columns(tmp_path):
+    """df.set_index("time").to_parquet(), and to_parquet(index=True), ended with pandas'
+    'Length mismatch: Expected axis has 11 elements, new values have 12 elements'."""
+    import pandas as pd
+
+    path = write_csv(tmp_path, GOOD_ROWS)
+    want = read_measurements(path)
+    frame = pd.read_csv(path, comment="#")
+    for name, written in (("indexed", frame.set_index("time")),
+                          ("multi", frame.set_index(["sensor", "time"])),
+                          ("range", frame)):
+        written.to_parquet(tmp_path / f"{name}.parquet", index=True)
+        got = read_measurements(tmp_path / f"{name}.parquet")
+        assert np.array_equal(got.time, want.time) and np.array_equal(got.value, want.value)
+
+
 # -- refusals ------------------------------------------------------------------------------
 
 # (rows replaced in GOOD_ROWS: {index: row}, row number, column, words in the message)

@@ -84,3 +84,10 @@ def test_the_command_prints_the_proposal_and_refuses_a_header_it_cannot_read(tmp
                                str(out)])
     assert told.exit_code == 2 and "--guess only prints a mapping and imports nothing" in (
         " ".join(told.output.split())) and not out.exists()
+
+
+def test_a_parquet_log_written_with_its_time_as_index_is_guessed_with_it(tmp_path):
+    """pd.read_parquet made df.set_index("utc")'s time the index: 'no time column among ...'."""
+    path = tmp_path / "drone.parquet"
+    pd.read_csv(SAMPLES / "drone.csv").set_index("utc").to_parquet(path)
+    assert guess_mapping(path).columns["time"] == "utc"

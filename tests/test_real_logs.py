@@ -462,6 +462,9 @@ def test_a_parquet_wide_log_with_a_timestamp_column_reads_like_the_csv(tmp_path)
     assert np.array_equal(a.time, b.time) and np.array_equal(a.value, b.value)
     assert np.allclose(a.sensor_state, b.sensor_state, atol=1e-9)
     assert b.metadata["time_origin"] == a.metadata["time_origin"]
+    frame.set_index("utc").to_parquet(tmp_path / "indexed.parquet")  # 'utc' was missing
+    c = tk.read_measurements(tmp_path / "indexed.parquet", format="wide", mapping=mapping)
+    assert np.array_equal(a.time, c.time) and np.array_equal(a.value, c.value)
 
 
 def test_the_shipped_samples_are_the_simulations_output():

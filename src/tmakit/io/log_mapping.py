@@ -408,7 +408,10 @@ def guess_mapping(path: str | os.PathLike[str]) -> MappingGuess:
 
     path = Path(path)
     if path.suffix.lower() in (".parquet", ".pq"):
-        frame = pd.read_parquet(path).head(5).astype(str)
+        import pyarrow.parquet as pq
+
+        table = pq.read_table(path).slice(0, 5)  # (an index pandas wrote is a column too)
+        frame = table.to_pandas(ignore_metadata=True).astype(str)
     else:
         frame = pd.read_csv(path, dtype=str, nrows=5, encoding="utf-8-sig",
                             sep=csv_separator(path))

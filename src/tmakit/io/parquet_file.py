@@ -42,7 +42,8 @@ def load_parquet(path: Path) -> RawTable:
     problems += [cased] if (cased := case_problem(names)) is not None else []
     if problems:
         raise MeasurementFileError(path, problems)
-    frame = table.to_pandas().reset_index(drop=True)
+    # (ignore_metadata: an index pandas wrote, df.set_index("time"), is a column as written)
+    frame = table.to_pandas(ignore_metadata=True).reset_index(drop=True)
     frame.columns = names
     return RawTable(frame, metadata, None)
 
