@@ -429,6 +429,14 @@ def test_cells_padded_with_spaces_read_as_their_text(tmp_path):
     assert list(ms.kinds) == ["bearing", "frequency", "power", "range_difference"]
 
 
+def test_a_pandas_index_column_is_named_as_such(tmp_path):
+    """df.to_csv(path) writes an unnamed index first: say so, and how pandas leaves it out."""
+    path = write_csv(tmp_path, [f"{k},{row}" for k, row in enumerate(GOOD_ROWS)],
+                     header="," + HEADER)
+    assert ("column 1 of the header has no name (pandas writes its index there: "
+            "to_csv(..., index=False) leaves it out)") in refused(path)
+
+
 def test_trailing_lines_of_spaces_are_blank_lines(tmp_path):
     """An editor's trailing '  ' and tab lines were refused as records of one field."""
     path = write_csv(tmp_path, GOOD_ROWS)

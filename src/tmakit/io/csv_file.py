@@ -145,8 +145,9 @@ def _checked_header(path: Path, header: list[str], header_line: int,
             problems.append(f"line {header_line}: column {name!r} appears more than once in "
                             "the header")
         seen.add(name)
-    problems += [f"line {header_line}: column {i + 1} of the header has no name"
-                 for i, name in enumerate(names) if not name]
+    problems += [f"line {header_line}: column {i + 1} of the header has no name" + (
+                 " (pandas writes its index there: to_csv(..., index=False) leaves it out)"
+                 if i == 0 else "") for i, name in enumerate(names) if not name]
     problems += record_problems
     if problems:
         raise MeasurementFileError(path, problems)
