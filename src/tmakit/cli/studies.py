@@ -212,8 +212,10 @@ def reproduce(
     try:
         rep = module.run(**({} if runs is None else {"runs": runs}), seed=seed,
                          progress=not no_progress, **extra)
-    except (ValueError, ImportError) as e:
-        raise fail(str(e)) from None
+    except (ValueError, ImportError) as e:  # ("steps must be ...": named by its flag)
+        text = str(e)
+        raise fail(f"--{text}" if text.split(" ")[0] in extra or text.startswith("runs ")
+                   else text) from None
     if checkpoint is not None:
         checkpoint.finish(rep.study)
     if plot is not None:
