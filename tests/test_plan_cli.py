@@ -218,6 +218,8 @@ def test_tma_plan_names_the_missing_table_and_the_bad_duration():
     result = runner.invoke(app, ["plan", "plan-bearings-only", "--duration", "15"])
     assert result.exit_code == 2 and "--duration" in result.output
     # the count was printed in full: 301 digits with their commas
+    result = runner.invoke(app, ["plan", "plan-bearings-only", "--runs", "1000000000"])
+    assert result.exit_code == 2 and "--runs 1,000,000,000: more than the limit" in result.output
     result = runner.invoke(app, ["plan", "plan-bearings-only", "--duration", "1e300"])
     assert result.exit_code == 2 and ("--duration 1e+300 s: 1e+299 decisions of 10 s per run, "
                                       "more than the limit of 1,000,000") in result.output

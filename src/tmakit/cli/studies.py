@@ -57,9 +57,7 @@ def montecarlo(
     output, json_file, partial = check_outputs(
         [("-o", output, "table"), ("--json", json_file, "json"),
          ("-o (partial results)", partial, "table")], force)
-    if runs > max_runs:
-        raise fail(f"--runs {runs:,}: more than the limit of {max_runs:,} runs; raise it with "
-                   "--max-runs")
+    check_runs(runs, max_runs, "; raise it with --max-runs")
     scn = load_scenario_or_fail(scenario)
     with claim_outputs([output, json_file, partial]):  # a second run to them is refused now
         res = _study(scn, partial, estimator=estimator, runs=runs, rng=seed,
@@ -115,6 +113,12 @@ def _write_results(res: Any, output: Path | None, json_file: Path | None, force:
             lost = True
     if lost:
         raise typer.Exit(1)
+
+
+def check_runs(runs: int | None, limit: int = MAX_RUNS, hint: str = "") -> None:
+    """Refuse more ``--runs`` than ``limit`` (a billion runs' seeds alone fill the memory)."""
+    if runs is not None and runs > limit:
+        raise fail(f"--runs {runs:,}: more than the limit of {limit:,} runs{hint}")
 
 
 def save_partial(finished: list[Any], scn: Any, partial: Path | None) -> None:
@@ -197,6 +201,7 @@ def reproduce(
     keep_freed_memory()  # tma's own process: the allocator keeps what the Monte Carlo frees
     if runs is not None and runs < 0:
         raise fail("--runs must be 0 or more")
+    check_runs(runs)
     module = importlib.import_module(REPRODUCTIONS[name])
     extra = _extra_options(name, module, particles=particles, steps=steps, radar=radar,
                            tracker=tracker, dask=dask, chunk=chunk, output=output)
@@ -344,6 +349,7 @@ def plan(
     output, plot = check_outputs([("-o", output, "table"), ("--plot", plot, "picture")], force)
     if runs is not None and runs < 1:
         raise fail("--runs must be 1 or more")
+    check_runs(runs)
     if particles is not None and particles < 2:
         raise fail("--particles must be 2 or more")
     check_particles(particles)
