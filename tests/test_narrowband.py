@@ -103,7 +103,7 @@ def test_propagation_speed_is_a_stated_parameter():
         with pytest.raises(ValueError, match=r"frequency_propagation_speed: expected a speed "
                                              r"within \(0, 299792458\] m/s"):
             Frequency.options_from_metadata({"frequency_propagation_speed": bad})
-    with pytest.raises(ValueError, match="propagation speed 300000000.0: expected"):
+    with pytest.raises(ValueError, match=r"propagation speed 300000000\.0: expected"):
         Frequency(propagation_speed=3e8)
 
 
