@@ -173,6 +173,18 @@ def test_crlb_refuses_a_bad_truth(tmp_path):
     assert result.exit_code == 2 and "name=value" in result.output
     result = run("crlb", str(obs), "--motion", "cv2d", "--truth", "x=1,y=2")
     assert result.exit_code == 2 and "missing vx, vy" in result.output
+    # a truth at 1e300 m was bounded as 'rank 0 of 4 - NOT fully observable'
+    result = run("crlb", str(obs), "--motion", "cv2d", "--truth", "x=1e300,y=0,vx=0,vy=0")
+    assert result.exit_code == 2 and ("truth x=1e+300: expected positions within 1e+09 m of "
+                                      "the origin") in " ".join(result.output.split())
+    with pytest.raises(ValueError, match="truth vx=1e"):
+        tk.crlb(tk.read_measurements(obs), tk.ConstantVelocity(2, 0.0),
+                truth={"x": 0.0, "y": 0.0, "vx": 1e9, "vy": 0.0})
+    # --at 1e12 was answered (std 3e11 m) where tma estimate refuses it
+    result = run("crlb", str(obs), "--motion", "cv2d", "--truth", "x=1,y=2,vx=0,vy=0",
+                 "--at", "1e12")
+    assert result.exit_code == 2 and "--at 1000000000000: 1e+12 s from the measurements" in (
+        " ".join(result.output.split()))
 
 
 def test_estimate_without_a_guess_text_and_json(tmp_path):

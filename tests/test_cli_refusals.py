@@ -95,7 +95,10 @@ def test_a_list_option_given_a_second_value_says_so():
     (["--range-sigma", "1e12"], "--range-sigma 1e+12: expected a noise standard deviation of "
                                 "at most 1e+09 m for a range"),
     (["--frequency-sigma", "0"], "--frequency-sigma 0: expected a noise standard deviation > 0 "
-                                 "(Hz)")])
+                                 "(Hz)"),
+    # the last one was taken without a word
+    (["--bearing-sigma", "sonar=1,sonar=2"], "--bearing-sigma 'sonar=1,sonar=2': sonar is given "
+                                             "twice")])
 def test_a_sigma_option_beyond_its_kind_is_refused_naming_the_option(option, message):
     """Was: --bearing-sigma 5000 fitted (every answer unobservable, a chi2 'too good to be
     true'), and --bearing-sigma -1 was a 'problem in the measurement file'."""

@@ -197,8 +197,12 @@ def test_reproduce_hurtado2008_runs_and_writes_json(tmp_path):
     (["--steps", "1"], "--steps must be 3 or more"),
     (["--radar", "sonar"], "--radar must be one of"),
     (["--tracker", "kalman"], "--tracker must be one of"),
-    (["--runs", "0"], "runs must be >= 1"),
+    (["--runs", "0"], "--runs must be >= 1"),
     (["--output", "x.txt"], "--output"),
+    # 1e8 steps ran on for hours (a plan's duration is held to 1,000,000 decisions)
+    (["--steps", "100000000"], "--steps must be within [3, 1,000,000] (decisions per run"),
+    # a billion runs filled 1.8 GB with their seeds in 25 s, nothing said
+    (["--runs", "1000000000"], "--runs 1,000,000,000: more than the limit of 1,000,000 runs"),
 ])
 def test_reproduce_hurtado2008_refuses_bad_options(args, message):
     res = runner.invoke(app, ["reproduce", "hurtado2008", "--radar", "scenario", *args]

@@ -248,6 +248,12 @@ def test_fit_many_fits_sets_of_other_rows_one_by_one_and_returns_errors_per_set(
     np.testing.assert_allclose(batch[2].estimate, ml.fit(b, gu.motion).estimate, rtol=1e-6)
     with pytest.raises(ValueError, match="init must give 4 values"):
         MaximumLikelihood(init=[1.0, 2.0]).fit_many([a, b], gu.motion)
+    # a start at 1e300 m was fitted and called unobservable (exit 4 from tma estimate)
+    for init, words in (({"x": 1e300, "y": 0.0, "vx": 0.0, "vy": 0.0}, "init x=1e+300"),
+                        ([0.0, 0.0, 1e9, 0.0], "init vx=1e+09")):
+        with pytest.raises(ValueError, match=words.replace("+", r"\+") + ": expected positions "
+                                             "within 1e.09 m of the origin and speeds below"):
+            tk.estimate(a, gu.motion, init=init)
     with pytest.raises(TypeError, match="manoeuvring target"):
         ml.fit_many([a], tk.PiecewiseCurvilinear(1, 0.0))
 

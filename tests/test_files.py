@@ -223,6 +223,22 @@ def test_parquet_with_foreign_types(tmp_path):
     assert ms.metadata == {"site": "north"}
 
 
+def test_parquet_written_by_pandas_with_an_index_reads_its_columns(tmp_path):
+    """df.set_index("time").to_parquet(), and to_parquet(index=True), ended with pandas'
+    'Length mismatch: Expected axis has 11 elements, new values have 12 elements'."""
+    import pandas as pd
+
+    path = write_csv(tmp_path, GOOD_ROWS)
+    want = read_measurements(path)
+    frame = pd.read_csv(path, comment="#")
+    for name, written in (("indexed", frame.set_index("time")),
+                          ("multi", frame.set_index(["sensor", "time"])),
+                          ("range", frame)):
+        written.to_parquet(tmp_path / f"{name}.parquet", index=True)
+        got = read_measurements(tmp_path / f"{name}.parquet")
+        assert np.array_equal(got.time, want.time) and np.array_equal(got.value, want.value)
+
+
 # -- refusals ------------------------------------------------------------------------------
 
 # (rows replaced in GOOD_ROWS: {index: row}, row number, column, words in the message)
@@ -382,6 +398,52 @@ def test_windows_line_ends_and_byte_order_mark(tmp_path):
     path.write_bytes(b"\xef\xbb\xbf" + text.replace(",0,5,0,5,0,", ",1,5,0,5,0,").encode())
     ms = read_measurements(path)
     assert ms.metadata == {"site": "north"} and len(ms) == 3
+
+
+def test_a_header_in_another_case_is_told_to_rename_it(tmp_path):
+    """'TIME,SENSOR,...' was told 'none of the columns of tmakit's measurement file: a wide
+    log ...'; an extra 'Sensor_Z' column was dropped without a word (its heights read as 0)."""
+    upper = refused(write_csv(tmp_path, GOOD_ROWS, header=HEADER.upper()))
+    assert ("column names are lower case in tmakit's measurement file: rename 'TIME' to "
+            "'time', 'SENSOR' to 'sensor'") in upper and "wide log" not in upper
+    z = write_csv(tmp_path, [r + ",3" for r in GOOD_ROWS], header=HEADER + ",Sensor_Z",
+                  name="z.csv")
+    assert "rename 'Sensor_Z' to 'sensor_z'" in refused(z)
+    import pyarrow.parquet as parquet
+
+    pq = tmp_path / "z.parquet"
+    write_measurements(read_measurements(write_csv(tmp_path, GOOD_ROWS, name="good.csv")), pq)
+    table = parquet.read_table(pq)
+    parquet.write_table(table.rename_columns(
+        ["Time" if n == "time" else n for n in table.column_names]), pq)
+    assert "rename 'Time' to 'time'" in refused(pq)
+    kept = write_csv(tmp_path, [r + ",x" for r in GOOD_ROWS], header=HEADER + ",Note",
+                     name="note.csv")
+    assert len(read_measurements(kept)) == len(GOOD_ROWS)  # not a column of the format
+
+
+def test_cells_padded_with_spaces_read_as_their_text(tmp_path):
+    """' bearing ' was refused as no kind, where the sensor's and the numbers' padding read."""
+    padded = [",".join(f" {c} " for c in r.split(",")) for r in GOOD_ROWS]
+    ms = read_measurements(write_csv(tmp_path, padded))
+    assert list(ms.kinds) == ["bearing", "frequency", "power", "range_difference"]
+
+
+def test_a_pandas_index_column_is_named_as_such(tmp_path):
+    """df.to_csv(path) writes an unnamed index first: say so, and how pandas leaves it out."""
+    path = write_csv(tmp_path, [f"{k},{row}" for k, row in enumerate(GOOD_ROWS)],
+                     header="," + HEADER)
+    assert ("column 1 of the header has no name (pandas writes its index there: "
+            "to_csv(..., index=False) leaves it out)") in refused(path)
+
+
+def test_trailing_lines_of_spaces_are_blank_lines(tmp_path):
+    """An editor's trailing '  ' and tab lines were refused as records of one field."""
+    path = write_csv(tmp_path, GOOD_ROWS)
+    path.write_text(path.read_text() + "\n   \n\t\n\n")
+    assert len(read_measurements(path)) == len(GOOD_ROWS)
+    inside = write_csv(tmp_path, [GOOD_ROWS[0], "   ", *GOOD_ROWS[1:]], name="inside.csv")
+    assert "row 2 (line 4): expected 10 fields" in refused(inside)  # named where it is
 
 
 def test_ragged_row_is_refused(tmp_path):

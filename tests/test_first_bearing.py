@@ -114,7 +114,8 @@ def test_bearing_prior_forms_have_the_same_moments():
     assert ranges.min() >= 500.0 * 0.99 and ranges.max() <= 20_000.0 * 1.01
     assert np.hypot(draws[:, 2], draws[:, 3]).max() <= 8.0
     for bad in ((1000.0, 500.0, 5.0), (0.0, 500.0, 5.0), (100.0, 500.0, 0.0),
-                (100.0, math.inf, 5.0)):
+                (100.0, math.inf, 5.0), (1.0, 1e12, 5.0), (1e-9, 1e3, 5.0), (1e3, 1e4, 1e-300),
+                (1e3, 1e4, 5.0, (0.0, 1e300)), (1e3, 1e4, 5.0, (math.nan, 1.0))):
         with pytest.raises(ValueError, match="prior"):
             BearingPrior(*bad)
 
@@ -272,9 +273,22 @@ def test_command_starts_at_the_first_bearing_and_smooths(obs):
 
 
 @pytest.mark.parametrize(("args", "message"), [
-    (["--range-prior", "5000:100"], "--range-prior '5000:100': expected 0 < MIN < MAX"),
+    (["--range-prior", "5000:100"], "--range-prior '5000:100': expected MIN:MAX with 1 <= MIN "
+                                    "< MAX <= 1e+09 (m)"),
     (["--range-prior", "far"], "--range-prior 'far': expected MIN:MAX"),
-    (["--speed-prior", "-3"], "--speed-prior -3.0: expected a speed > 0"),
+    # a range to 7 AU was taken (its std in the millions of km); a MIN of 1e-9 m ended with
+    # 'Matrix is not positive definite.', 1e-300 m with an internal error
+    (["--range-prior", "1:1e12"], "--range-prior '1:1e12': expected MIN:MAX with 1 <= MIN"),
+    (["--range-prior", "1e-9:1e9"], "--range-prior '1e-9:1e9': expected MIN:MAX with 1 <= MIN"),
+    (["--range-prior", "1e-300:1"], "--range-prior '1e-300:1': expected MIN:MAX with 1 <= MIN"),
+    (["--speed-prior", "-3"], "--speed-prior -3.0: expected a largest speed within [0.001, "
+                              "10000] m/s"),
+    # 'the prior covariance must be positive definite', no option named
+    (["--speed-prior", "1e-300"], "--speed-prior 1e-300: expected a largest speed within"),
+    (["--speed-prior", "2e4"], "--speed-prior 20000.0: expected a largest speed within"),
+    # an internal error (OverflowError in the height's variance)
+    (["--height-prior=-1e300:1e300"], "--height-prior '-1e300:1e300': expected MIN:MAX with "
+                                      "-1e+09 <= MIN <= MAX <= 1e+09 (m)"),
     (["--q-density", "x"], "--q-density 'x': expected one number"),
     (["--filter", "ekf", "--component", "ckf"], "--component applies only to --filter gsf"),
     (["--filter", "pf", "--seed", "1", "--lag", "3"], "smoother is fixed-interval"),
@@ -301,6 +315,51 @@ def test_a_clutter_first_bearing_is_rejected_by_the_innovations_after_it(name):
     last = tk.track(meas.take(np.arange(3)), name, initiator=BearingInitiator(
         MODERATE.prior(), confirm_p_value=1.0))
     assert last.times[0] == meas.time[2] and len(last.extra.start["rejected"]) == 2
+    with pytest.raises(TrackingError,
+                       match=r"does the prior \(range 499\.\.10990 m, speed <= 5\.14 m/s\) hold"):
+        tk.track(meas.take(np.arange(3)), name, initiator=BearingInitiator(
+            MODERATE.prior(), confirm_p_value=1.01))  # even the last bearing's start
+
+
+def test_rows_of_other_kinds_before_the_first_bearing_are_left_out_and_said(tmp_path):
+    """A range before the first bearing ended every first-bearing start with the filter's
+    'measurements start at t=-30.0 s, before the filter's prior time t=0.0 s'."""
+    meas, _ = moderate_run(6)
+    early = MeasurementSet.from_si(np.array([-30.0]), ["own ship"], ["range"],
+                                   np.array([5000.0]), np.array([50.0]), meas.sensor_state[:1])
+    both = MeasurementSet.concatenate([early, meas])
+    tr = tk.track(both, "gsf", q_density=Q_DENSITY, bearing_prior=MODERATE.prior())
+    assert tr.times[0] == meas.time[0] and tr.extra.start["unused_rows"] == 1
+    path = tmp_path / "range_first.csv"
+    tk.write_measurements(both, path)
+    result = runner.invoke(app, ["track", str(path), "--filter", "gsf", "--range-prior",
+                                 "499:10990", "--speed-prior", "5.14", "--rows", "2"])
+    assert result.exit_code == 0, result.output
+    assert "1 row of other kinds before it not used" in " ".join(result.output.split())
+
+
+def test_a_range_the_data_leave_open_is_said_to_come_from_the_prior(tmp_path, obs):
+    """An emitter at 420 km, 67 m/s, against the default prior (500..50000 m, <= 20 m/s): the
+    gsf track ended 342 km off, 73.65 sigma, with 'trust: ok'. The data alone do not fix the
+    range there (a constant-velocity fit leaves it undetermined), so the track says its range
+    comes from the prior; where they do (the moderate scenario) it says nothing of the kind."""
+    from importlib import resources
+
+    text = (resources.files("tmakit.scenario") / "builtin" / "bearings-only-2d.toml").read_text()
+    toml = tmp_path / "far.toml"
+    toml.write_text(text.replace("truth = { x = 4000.0, y = 9000.0, vx = -6.0, vy = -3.0 }",
+                                 "truth = { x = 300000.0, y = 300000.0, vx = -60.0, vy = -30.0 }"))
+    far = tmp_path / "far.csv"
+    tk.write_measurements(tk.load_scenario(toml).simulate(rng=3), far)
+    result = runner.invoke(app, ["track", str(far), "--filter", "gsf", "--json"])
+    data = json.loads(result.stdout)
+    assert result.exit_code == 0 and data["trust"] == "warning", data["trust_reasons"]
+    said = {r["code"]: r["message"] for r in data["trust_reasons"]}
+    assert "range (1-sigma" in said["range-from-prior"]
+    assert "comes from its prior (range 500..50000 m (default)" in said["range-from-prior"]
+    near = json.loads(runner.invoke(app, ["track", str(obs), "--filter", "gsf", "--range-prior",
+                                          "499:10990", "--speed-prior", "5.14", "--json"]).stdout)
+    assert "range-from-prior" not in {r["code"] for r in near["trust_reasons"]}
 
 
 def test_exact_posterior_reference_agrees_with_an_independent_sampler():

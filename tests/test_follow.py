@@ -148,6 +148,11 @@ def test_follow_refusals(contact, tmp_path):
     grow.write_text("".join(contact))
     r = runner.invoke(app, ["track", "--follow", str(grow), "--max-updates", "0"])
     assert r.exit_code == 2 and "--max-updates" in r.output
+    # 1e300 s ended in an internal error (time.sleep's OverflowError); 1e-9 s is a busy loop
+    for interval in ("1e300", "1e-9"):
+        r = runner.invoke(app, ["track", "--follow", str(grow), "--interval", interval])
+        assert r.exit_code == 2, r.output
+        assert "expected seconds within [0.01, 86400] (a day)" in r.output
 
 
 def test_follow_a_growing_csv_file(tmp_path):

@@ -401,6 +401,12 @@ def test_tma_gdop_prints_the_map_and_refuses_a_layout_without_pairs(tmp_path):
     assert res.exit_code == 2 and "--force" in res.output
     res = runner.invoke(app, ["gdop", "bearings-only-2d"])
     assert res.exit_code == 2 and "no tdoa or fdoa" in res.output
+    # 1e300 m printed 'CEP50: min inf m, median inf m, max inf m'; 0 was named half_width
+    for option, words in (("--half-width", "--half-width: expected a distance within (0, "
+                                           "1e+09] m"),
+                          ("--height", "--height: expected a height within +-1e+09 m")):
+        res = runner.invoke(app, ["gdop", str(LAYOUT), option, "1e300"])
+        assert res.exit_code == 2 and words in " ".join(res.output.split()), res.output
 
 
 # -- sensor positions known to a covariance (issue 30, item 4) -------------------------------

@@ -101,8 +101,11 @@ def test_transition_and_model_q_refused_with_their_names():
     with pytest.raises(ValueError, match="transition must be a 2x2"):
         InteractingMultipleModel(np.zeros(4), np.eye(4), model_q=[1.0], turn_rates=[],
                                  transition=[[0.9, 0.2], [0.1, 0.9]])
-    with pytest.raises(ValueError, match="model_q"):
-        InteractingMultipleModel(np.zeros(4), np.eye(4), model_q=[-1.0])
+    for bad in ([-1.0], [1e300], [np.nan]):
+        with pytest.raises(ValueError, match="model_q"):
+            InteractingMultipleModel(np.zeros(4), np.eye(4), model_q=bad)
+    with pytest.raises(ValueError, match="turn_rates must be != 0 and within"):
+        InteractingMultipleModel(np.zeros(4), np.eye(4), turn_rates=[7.0])
     with pytest.raises(ValueError, match="component"):
         InteractingMultipleModel(np.zeros(4), np.eye(4), component="pf")
     with pytest.raises(ValueError, match="iterations apply to EKF"):
@@ -240,7 +243,12 @@ def test_tma_track_imm_json_and_picture(obs, tmp_path):
 
 
 @pytest.mark.parametrize("args, words", [
-    (["--transition", "0.9,0.2;0.1,0.9"], "transition must be"),
+    (["--transition", "0.9,0.2;0.1,0.9"], "--transition: must be"),
+    # taken, or an internal error (OverflowError) for the rate's noise
+    (["--model-q", "1e300"], "--model-q: must be accelerations within [0, 10000] m/s^2"),
+    (["--turn-rate", "1e300"], "--turn-rate: must be != 0 and within +-6.283 rad/s (360 deg/s"),
+    (["--turn-rate-noise", "1e300"], "--turn-rate-noise: must be a turn rate's random walk "
+                                     "within [0, 6.283 rad/s (360 deg/s"),
     (["--transition", "a,b"], "--transition"),
     (["--model-q", "x"], "--model-q"),
     (["--lag", "3"], "--lag: --filter imm's smoother is fixed-interval"),
@@ -316,7 +324,7 @@ def test_tma_track_mmpf_json_and_refusals(obs):
     assert len(data["model_probabilities"]) == len(data["time"])
     np.testing.assert_allclose(np.sum(data["model_probabilities"], axis=1), 1.0)
     assert [m["q"][0] for m in data["models"]] == [0.0, 0.5]
-    for args, words in ((["--transition", "0.9,0.2;0.1,0.9"], "transition must be"),
+    for args, words in ((["--transition", "0.9,0.2;0.1,0.9"], "--transition: must be"),
                         (["--component", "ukf"], "--component applies only"),
                         (["--lag", "2"], "--lag: --filter mmpf's smoother is fixed-interval")):
         result = runner.invoke(app, ["track", str(obs), "--filter", "mmpf", *args])
@@ -377,8 +385,9 @@ def test_unknown_rate_turn_noise_and_refusals():
     q = model.noise(-9.0)
     np.testing.assert_allclose(q[:4, :4], process_noise(9.0, 0.05, 2))
     assert q[4, 4] == pytest.approx(9.0 * 4e-8) and not q[4, :4].any()
-    with pytest.raises(ValueError, match="turn rate's noise"):
-        UnknownRateTurn(2, 0.05, rate_noise=-1.0)
+    for bad in (-1.0, np.nan, 1e300):
+        with pytest.raises(ValueError, match="turn rate's noise"):
+            UnknownRateTurn(2, 0.05, rate_noise=bad)
     with pytest.raises(TypeError, match="depends on the turn rate"):
         model.transition(1.0)
     with pytest.raises(ValueError, match="rate_noise must be"):

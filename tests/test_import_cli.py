@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from typer.testing import CliRunner
 
 import tmakit as tk
@@ -122,6 +123,20 @@ def test_import_wide_gpx_nmea_and_inline_mapping(tmp_path):
                      folder / "bearings.toml", "-o", folder / f"{fmt}.csv")
         assert result.exit_code == 0, result.output
         assert len(tk.read_measurements(folder / f"{fmt}.csv")) == 119
+
+
+@pytest.mark.parametrize(("args", "words"), [
+    # the second lat was taken without a word: the longitudes read as latitudes
+    (["wide", "drone.csv", "--map", "time=utc,lat=lat,lon=lon,lat=lon", "--measure",
+      "rssi_dbm=power:dBm:2"], "--map 'time=utc,lat=lat,lon=lon,lat=lon': lat is given twice"),
+    # 'the column mapping is not valid: measurement: List should have at least 1 item'
+    (["rep", "contact.rep", "--map", "time=utc"], "--map and --measure apply to wide logs"),
+])
+def test_import_refuses_a_mapping_option_it_would_misread(tmp_path, args, words):
+    folder = examples(tmp_path)
+    result = run("import", args[0], folder / args[1], *args[2:], "-o", tmp_path / "o.csv")
+    assert result.exit_code == 2 and words in " ".join(result.output.split()), result.output
+    assert not (tmp_path / "o.csv").exists()
 
 
 def test_estimate_show_crlb_track_read_a_replay_file_directly(tmp_path):

@@ -79,3 +79,15 @@ def test_the_command_prints_the_proposal_and_refuses_a_header_it_cannot_read(tmp
     refused = runner.invoke(app, ["import", "wide", str(odd), "--guess"])
     assert refused.exit_code == 2 and "no time column among a, b, c" in refused.output
     assert runner.invoke(app, ["import", "rep", str(odd), "--guess"]).exit_code == 2
+    out = tmp_path / "obs.parquet"  # -o was left unwritten without a word
+    told = runner.invoke(app, ["import", "wide", str(SAMPLES / "drone.csv"), "--guess", "-o",
+                               str(out)])
+    assert told.exit_code == 2 and "--guess only prints a mapping and imports nothing" in (
+        " ".join(told.output.split())) and not out.exists()
+
+
+def test_a_parquet_log_written_with_its_time_as_index_is_guessed_with_it(tmp_path):
+    """pd.read_parquet made df.set_index("utc")'s time the index: 'no time column among ...'."""
+    path = tmp_path / "drone.parquet"
+    pd.read_csv(SAMPLES / "drone.csv").set_index("utc").to_parquet(path)
+    assert guess_mapping(path).columns["time"] == "utc"

@@ -247,6 +247,19 @@ def test_a_manoeuvre_with_fewer_unknowns_than_the_order_below_is_favoured():
     assert select_order(fits, 1802, "bic").chosen == 2
 
 
+def test_a_small_alpha_prices_an_unknown_by_the_upper_tail_not_by_inf():
+    """ppf(1 - alpha) was inf from alpha = 1e-17 (1 - alpha is 1): every fit's statistic
+    inf - inf, so --alpha 1e-300 printed four 'equally good' solutions with LR = nan, p = nan,
+    and the message called 1 - alpha 'the chi-square(1) quantile'."""
+    from tmakit.batch.manoeuvre import fit_criterion, unknown_price
+
+    for alpha, price in ((0.05, 3.841459), (1e-6, 23.928127), (1e-300, 1373.9)):
+        s = ManoeuvreSettings(criterion="lrt", alpha=alpha)
+        assert unknown_price(s, 100) == pytest.approx(price, rel=1e-4)
+    words = fit_criterion(ManoeuvreSettings(criterion="lrt", alpha=1e-6))
+    assert "by less than 23.93, the chi-square(1) quantile exceeded with probability 1e-06" in words
+
+
 def test_bad_requests_are_refused_clearly(scn):
     meas = scn.simulate(rng=1)
     with pytest.raises(ValueError, match="curvilinear:M"):

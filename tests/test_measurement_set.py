@@ -100,3 +100,11 @@ def test_a_set_built_in_si_is_refused_with_the_file_unit_cell(column, bad, messa
     with pytest.raises(ValueError, match=re.escape(message)):
         MeasurementSet.from_si([0, 1, 2], ["a"] * 3, ["bearing"] * 3, cols["value_si"],
                                cols["sigma_si"], np.zeros((3, 6)))
+
+
+def test_a_blank_sensor_id_is_refused_as_a_file_refuses_its_empty_cell():
+    """A set with sensor '' was built (and written by tma import), then its file refused."""
+    with pytest.raises(ValueError, match=re.escape(
+            "row 2, column 'sensor': expected a sensor id (text), found ' '")):
+        MeasurementSet.from_si([0, 1], ["a", " "], ["bearing"] * 2, [0.1, 0.2], [0.01, 0.01],
+                               np.zeros((2, 6)))

@@ -99,8 +99,12 @@ def test_propagation_speed_is_a_stated_parameter():
         assert Frequency(speed_of_light=1480.0).c == 1480.0
     assert Frequency.options_from_metadata({"frequency_propagation_speed": "1500"}) == {
         "propagation_speed": 1500.0}
-    with pytest.raises(ValueError, match="frequency_propagation_speed: expected a speed > 0"):
-        Frequency.options_from_metadata({"frequency_propagation_speed": "-1"})
+    for bad in ("-1", "1e300"):  # faster than light was taken
+        with pytest.raises(ValueError, match=r"frequency_propagation_speed: expected a speed "
+                                             r"within \(0, 299792458\] m/s"):
+            Frequency.options_from_metadata({"frequency_propagation_speed": bad})
+    with pytest.raises(ValueError, match=r"propagation speed 300000000\.0: expected"):
+        Frequency(propagation_speed=3e8)
 
 
 def test_debrief_frequencies_are_sonar_tonals():
@@ -161,9 +165,11 @@ def test_track_follows_several_tonals_from_the_command(tmp_path):
 
 
 def test_bad_propagation_speed_is_refused():
-    result = runner.invoke(app, ["estimate", *PAIR, "--propagation-speed", "0"])
-    assert result.exit_code == 2
-    assert "--propagation-speed 0: expected a speed > 0 (m/s)" in result.output
+    for bad in ("0", "1e300"):  # 1e300 m/s was taken
+        result = runner.invoke(app, ["estimate", *PAIR, "--propagation-speed", bad])
+        assert result.exit_code == 2
+        assert (f"--propagation-speed {float(bad):g}: expected a speed within (0, 299792458] "
+                "m/s (light's)") in " ".join(result.output.split())
 
 
 def test_each_frequency_column_of_a_wide_log_is_a_tonal(tmp_path):

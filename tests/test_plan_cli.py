@@ -146,6 +146,31 @@ def test_tma_plan_runs_the_example_and_writes_its_table(tmp_path):
     assert np.all(planned["range_m"] >= 1000.0)        # the hard minimum range
 
 
+def test_tma_plan_interrupted_keeps_its_finished_chunks(tmp_path, monkeypatch):
+    """Ctrl-C in a long tma plan lost every finished run; its chunks are saved as they end."""
+    import pandas as pd
+
+    import tmakit.montecarlo.closed_loop as loop
+
+    real = loop.execute
+
+    def interrupted_after_first_chunk(tasks, client, label, runs, progress, on_chunk=None,
+                                      **kwargs):
+        real(tasks[:1], client, label, len(tasks[0].seeds), progress, on_chunk, **kwargs)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(loop, "execute", interrupted_after_first_chunk)
+    out = tmp_path / "plan.parquet"
+    result = runner.invoke(app, ["plan", "plan-bearings-only", "-o", str(out), "--runs", "6",
+                                 "--duration", "20", "--particles", "100", "--no-progress"])
+    assert result.exit_code == 130, result.output
+    assert not out.exists()
+    parts = sorted((tmp_path / "plan.parquet.parts").glob("*.parquet"))
+    assert [p.name for p in parts] == ["planned-000000.parquet"]
+    table = pd.read_parquet(parts[0])
+    assert sorted(set(table["run"])) == [0, 1, 2, 3, 4] and set(table["step"]) == {1, 2}
+
+
 def test_tma_plan_refuses_bad_outputs_before_running(tmp_path):
     existing = tmp_path / "plan.csv"
     existing.write_text("keep me\n")
@@ -192,3 +217,9 @@ def test_tma_plan_names_the_missing_table_and_the_bad_duration():
     assert result.exit_code == 2 and "no [planning] table" in result.output
     result = runner.invoke(app, ["plan", "plan-bearings-only", "--duration", "15"])
     assert result.exit_code == 2 and "--duration" in result.output
+    # the count was printed in full: 301 digits with their commas
+    result = runner.invoke(app, ["plan", "plan-bearings-only", "--runs", "1000000000"])
+    assert result.exit_code == 2 and "--runs 1,000,000,000: more than the limit" in result.output
+    result = runner.invoke(app, ["plan", "plan-bearings-only", "--duration", "1e300"])
+    assert result.exit_code == 2 and ("--duration 1e+300 s: 1e+299 decisions of 10 s per run, "
+                                      "more than the limit of 1,000,000") in result.output

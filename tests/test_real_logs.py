@@ -6,6 +6,8 @@ few seeds (the full figures: benchmarks/real_logs_replay.py and benchmarks/real_
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from sample_logs import drone_sample, gpx_nmea_sample, replay_sample
@@ -217,10 +219,21 @@ def test_epoch_and_iso_clock_times():
     assert (t[0] - t[2]) == 250_000_000 and (t[1] - t[2]) == 500_000_000
 
 
+def test_iso_clock_times_beyond_the_nanosecond_years_are_refused_as_cells():
+    """pandas keeps 2500 and 1500 at microseconds; they were pandas' 'Out of bounds' error."""
+    t, bad = parse_clock_times(["2026-05-04T09:30:00Z", "2500-05-04T09:30:03Z",
+                                "1500-05-04T09:30:03Z", "2199-12-31T23:59:59Z"])
+    assert bad.tolist() == [False, True, True, False]
+    assert t[3] - t[0] > 0
+
+
 @pytest.mark.parametrize(("edit", "expect"), [
     (lambda s: s.replace("2026-05-04T09:30:03.000Z", "09h30"),
      "row 4 (line 5), column 'utc': expected an ISO-8601 time or epoch seconds (since "
      "1970-01-01 UTC) between 1970 and 2200, found '09h30'"),
+    (lambda s: s.replace("2026-05-04T09:30:03.000Z", "2500-05-04T09:30:03Z"),
+     "row 4 (line 5), column 'utc': expected an ISO-8601 time or epoch seconds (since "
+     "1970-01-01 UTC) between 1970 and 2200, found '2500-05-04T09:30:03Z'"),
     (lambda s: s.replace(",47.95", ",97.95", 1),
      "row 1 (line 2), column 'lat': expected a latitude within [-90, 90] deg, found 97.95"),
     (lambda s: s.replace("rssi_dbm", "rssi"), "column 'rssi_dbm' (power in dBm) is missing"),
@@ -238,6 +251,23 @@ def test_mapping_errors_name_the_key(tmp_path):
     mapping.write_text(mapping.read_text().replace('unit = "dBm"', 'unit = "mW"'))
     with pytest.raises(MeasurementFileError, match=r"measurement\.0: unit 'mW' of power: "
                        "expected one of dBm, dBW"):
+        tk.read_measurements(log, format="wide", mapping=mapping)
+
+
+def test_a_blank_sensor_id_is_refused_by_key_or_by_cell(tmp_path):
+    """sensor = "" and an empty cell of a sensor_column gave sets with sensor '', which
+    tma import wrote to a file that tmakit then refused."""
+    log, mapping, _ = drone_files(tmp_path)
+    text = mapping.read_text()
+    mapping.write_text(text.replace('sensor = "drone"', 'sensor = ""'))
+    with pytest.raises(MeasurementFileError, match="sensor: expected a sensor id"):
+        tk.read_measurements(log, format="wide", mapping=mapping)
+    mapping.write_text(text.replace('sensor = "drone"', 'sensor_column = "rx"'))
+    lines = log.read_text().splitlines()
+    log.write_text("\n".join([lines[0] + ",rx"] + [
+        line + ("," if k == 3 else ",d1") for k, line in enumerate(lines[1:], 1)]) + "\n")
+    with pytest.raises(MeasurementFileError, match=re.escape(
+            "row 3 (line 4), column 'rx': expected a sensor id (text), found an empty cell")):
         tk.read_measurements(log, format="wide", mapping=mapping)
 
 
@@ -432,6 +462,9 @@ def test_a_parquet_wide_log_with_a_timestamp_column_reads_like_the_csv(tmp_path)
     assert np.array_equal(a.time, b.time) and np.array_equal(a.value, b.value)
     assert np.allclose(a.sensor_state, b.sensor_state, atol=1e-9)
     assert b.metadata["time_origin"] == a.metadata["time_origin"]
+    frame.set_index("utc").to_parquet(tmp_path / "indexed.parquet")  # 'utc' was missing
+    c = tk.read_measurements(tmp_path / "indexed.parquet", format="wide", mapping=mapping)
+    assert np.array_equal(a.time, c.time) and np.array_equal(a.value, c.value)
 
 
 def test_the_shipped_samples_are_the_simulations_output():

@@ -154,6 +154,15 @@ def _minimal_dict():
     (lambda d: d["measurements"][0].update(sensor="nobody"), "sensor 'nobody'"),
     (lambda d: d.update(colour="blue"), "colour"),
     (lambda d: d["measurements"][0].update(kind="frequency"), "carrier"),
+    # both were simulated: the heading 1e300 deg (float garbage mod 360), a turn of 1e9 deg/s
+    (lambda d: d["sensors"].__setitem__(0, {
+        "type": "legs", "id": "s", "start": [0.0, 0.0], "heading_deg": 1e300, "speed": 8.0,
+        "legs": [{"duration": 10.0}]}), "sensors[0].legs.heading_deg: Input should be less "
+                                         "than or equal to 360"),
+    (lambda d: d["sensors"].__setitem__(0, {
+        "type": "legs", "id": "s", "start": [0.0, 0.0], "heading_deg": 45.0, "speed": 8.0,
+        "legs": [{"duration": 10.0, "turn_rate_deg_s": -1e9}]}),
+     "sensors[0].legs.legs[0].turn_rate_deg_s: Input should be greater than or equal to -360"),
 ])
 def test_bad_scenario_files_are_refused_naming_the_field(mutate, expected):
     data = _minimal_dict()

@@ -184,6 +184,13 @@ def test_refusals_name_the_option(contact, tmp_path):
     r = runner.invoke(app, [*base, "--export", str(tmp_path / "s.rep"), "--export-every", "0"])
     assert r.exit_code == 2 and "--export-every" in r.output
     assert not (tmp_path / "s.rep").exists()
+    # 1e-9 s: np.arange of 3.6e12 points ran out of memory after the fit
+    r = runner.invoke(app, [*base, "--export", str(tmp_path / "s.rep"), "--export-every",
+                            "1e-9"])
+    assert r.exit_code == 2, r.output
+    assert ("solution points at one every 1e-09 s: more than 10000; write fewer (a longer "
+            "step, --export-every)") in " ".join(r.output.split())
+    assert not (tmp_path / "s.rep").exists()
     r = runner.invoke(app, [*base, "--html", str(tmp_path / "p.png")])
     assert r.exit_code == 2 and "--html" in r.output
 

@@ -230,7 +230,9 @@ def test_a_range_difference_file_with_a_problem_is_not_streamed(tmp_path, edit):
      "column 'value': expected a bearing"),
     (lambda r: [*r[:5], "3.5,ship,bearing,10,,0,0,0,5,0,0", *r[5:]], "column 'sigma'"),
     (lambda r: [*r[:5], "3.5,ship,bearng,10,1,0,0,0,5,0,0", *r[5:]], "column 'kind'"),
-    (lambda r: [*r[:5], "3.5,ship, bearing ,10,1,0,0,0,5,0,0", *r[5:]], "column 'kind'"),
+    # a kind padded with spaces (' bearing ') is read as the checker strips it: it is not
+    # streamed, and its row is then out of time order here (tests/test_files.py reads one)
+    (lambda r: [*r[:5], "3.5,ship, bearing ,10,1,0,0,0,5,0,0", *r[5:]], "time decreases"),
     (lambda r: [*r, r[-1]], "one row per (sensor, kind, time, time_ref)"),
     (lambda r: [*r, "0.5,ship,bearing,10,1,0,0,0,5,0,0"], "time decreases for sensor 'ship'"),
     (lambda r: [*r[:5], "3.5,ship,bearing,10,1,0,0,0", *r[5:]], "expected 11 fields"),

@@ -128,6 +128,26 @@ def test_prior_start_uses_every_measurement(obs):
     assert alone.exit_code == 2 and "--prior-std" in alone.output
 
 
+@pytest.mark.parametrize(("args", "message"), [
+    # the filter's 'measurements start at t=1.0 s, before the filter's prior time t=700.0 s'
+    (["--prior-time", "700"], "--prior-time 700: after the first measurement (t = 1 s)"),
+    # taken: predicted 1e9 s with no process noise, then diverged (exit 4)
+    (["--prior-time", "-1e9"], "--prior-time -1000000000: 1e+09 s from the measurements"),
+    # taken: the final position error 'inf m, inf sigma' (exit 4)
+    (["--prior", "x=1e300,y=2,vx=0,vy=0"], "--prior: expected positions within 1e+09 m"),
+    # 'the prior mean and the prior covariance must be finite', no option named
+    (["--prior-std", "x=1e300,y=1,vx=1,vy=1"], "--prior-std: standard deviations must be > 0 "
+                                               "and at most 1e+09 m"),
+])
+def test_a_prior_beyond_what_a_track_can_start_from_is_refused_naming_the_option(
+        obs, args, message):
+    given = {"--prior": "x=5000,y=8000,vx=0,vy=0", "--prior-std": "x=1e4,y=1e4,vx=10,vy=10"}
+    given.update(dict(zip(args[::2], args[1::2], strict=True)))
+    result = run("track", obs, *[w for kv in given.items() for w in kv])
+    assert result.exit_code == 2, result.output
+    assert message in " ".join(result.output.split())
+
+
 def test_per_axis_q_is_used_and_widens_the_covariance(obs):
     still = json.loads(run("track", obs, "--json").output)
     noisy = run("track", obs, "--q", "0.01,0.02", "--json")
@@ -462,6 +482,9 @@ def test_track_of_a_window_equals_the_track_of_the_rows_cut_by_hand(obs, tmp_pat
 @pytest.mark.parametrize(("window", "message"), [
     (["--from", "5000", "--to", "6000"], "--from/--to: no measurement between 5000.0 and "
                                          "6000.0 s"),
+    (["--from", "5000"], "--from 5000 (5000 s): no measurement at or after it (the file "
+                         "covers 1 .. 600 s)"),
+    (["--to", "-5"], "--to -5 (-5 s): no measurement at or before it"),
     (["--from", "400", "--to", "100"], "--from 400 is after --to 100"),
     (["--from", "noon"], "--from 'noon': expected seconds"),
     (["--to", "12:30"], "--to '12:30': a clock time needs the file's time origin"),

@@ -414,4 +414,8 @@ def check_set(meas: Any, order: bool = True) -> None:
     found = column_problems(meas.time, meas.sensor_code, meas.kind_code, meas.value,
                             meas.sigma, meas.sensor_state, meas.time_ref, order,
                             getattr(meas, "stream_code", lambda: None)())
+    for code in [c for c, name in enumerate(meas.sensor_names) if not str(name).strip()]:
+        rows = np.flatnonzero(meas.sensor_code == code)  # (a file refuses an empty sensor cell)
+        found += [f"row {int(r) + 1}, column 'sensor': expected a sensor id (text), found "
+                  f"{meas.sensor_names[code]!r}" for r in rows[:_SHOWN]]
     raise_problems(found + metadata_problems(meas.metadata))

@@ -11,6 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
 from ..motion import MotionModel
+from ..motion.base import WITHIN_REACH
 from ..results.estimate import EstimateResult
 
 #: A starting point: motion parameters by name, a vector in ``param_names`` order, or None.
@@ -44,12 +45,15 @@ def theta_from_init(motion: MotionModel, init: Mapping[str, float] | ArrayLike, 
                     named_only: bool = False) -> NDArray[np.float64]:
     """Give a start ``(p,)`` from names (``named_only``: others ignored) or a vector, checked."""
     if not isinstance(init, np.ndarray) and isinstance(init, Mapping):  # (an ABC's test: slow)
-        return motion.theta({k: v for k, v in init.items() if k in motion.param_names}
-                            if named_only else init)
-    theta = np.asarray(init, dtype=float).reshape(-1)
-    if theta.shape != (motion.n_params,):
-        raise ValueError(f"{prefix}init must give {motion.n_params} values "
-                         f"({', '.join(motion.param_names)})")
+        theta = motion.theta({k: v for k, v in init.items() if k in motion.param_names}
+                             if named_only else init)
+    else:
+        theta = np.asarray(init, dtype=float).reshape(-1)
+        if theta.shape != (motion.n_params,):
+            raise ValueError(f"{prefix}init must give {motion.n_params} values "
+                             f"({', '.join(motion.param_names)})")
+    if far := motion.beyond_reach(theta):
+        raise ValueError(f"{prefix}init {', '.join(far)}: {WITHIN_REACH}")
     return theta
 
 

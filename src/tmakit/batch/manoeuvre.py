@@ -590,13 +590,14 @@ def select_order(fits: list[OrderFit], n: int, criterion: str = "bic", alpha: fl
 def fit_criterion(s: ManoeuvreSettings) -> str:
     """Say in words the rule that holds an acceleration at zero (for result messages)."""
     return ("BIC: holding one raised chi2 by less than ln N" if s.criterion == "bic" else
-            f"holding one raised chi2 by less than the chi-square(1) quantile "
-            f"{1 - s.alpha:g}")
+            f"holding one raised chi2 by less than {unknown_price(s, 1):.4g}, the chi-square(1) "
+            f"quantile exceeded with probability {s.alpha:g}")
 
 
 def unknown_price(s: ManoeuvreSettings, n: int) -> float:
     """Give what one unknown must lower chi2 by to be kept, by the settings' criterion."""
-    return math.log(n) if s.criterion == "bic" else float(chi2_dist.ppf(1.0 - s.alpha, 1))
+    # (isf, not ppf(1 - alpha): 1 - 1e-17 is 1, whose quantile is inf)
+    return math.log(n) if s.criterion == "bic" else float(chi2_dist.isf(s.alpha, 1))
 
 
 def may_hold(free: NDArray[np.bool_], i: int, m: int) -> bool:

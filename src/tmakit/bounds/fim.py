@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..data import MeasurementSet
 from ..motion import MotionModel
+from ..motion.base import WITHIN_REACH
 from ..observation import ObservationModel
 from ..observation.noise import NoiseModel, effective_noise
 from ..observation.planar import Linearisation
@@ -102,6 +103,8 @@ def truth_vector(motion: MotionModel, truth: Mapping[str, float] | ArrayLike
     if theta.shape != (motion.n_params,):
         raise ValueError(f"truth must give {motion.n_params} values "
                          f"({', '.join(motion.param_names)}); got shape {theta.shape}")
+    if far := motion.beyond_reach(theta):
+        raise ValueError(f"truth {', '.join(far)}: {WITHIN_REACH}")
     return theta
 
 

@@ -182,8 +182,11 @@ def check_dim(dim: int | None) -> int | None:
 def model_options(drift: bool, free_exponent: bool, propagation_speed: float | None = None
                   ) -> dict[str, dict[str, object]]:
     """Return the model options of ``--drift``, ``--free-exponent`` and ``--propagation-speed``."""
-    if propagation_speed is not None and not propagation_speed > 0:
-        raise fail(f"--propagation-speed {propagation_speed:g}: expected a speed > 0 (m/s)")
+    from ..core.units import SPEED_OF_LIGHT
+    from ..measurements.frequency import PROPAGATION_SPEED
+
+    if propagation_speed is not None and not 0 < propagation_speed <= SPEED_OF_LIGHT:
+        raise fail(f"--propagation-speed {propagation_speed:g}: {PROPAGATION_SPEED}")
     speed = {} if propagation_speed is None else {"propagation_speed": propagation_speed}
     return {"frequency": {"drift": drift, **speed},
             "power": {"exponent": None if free_exponent else 2.0}}
@@ -295,6 +298,8 @@ def bearing_sigmas(text: str | float) -> float | dict[str, float]:
     out: dict[str, float] = {}
     for part in str(text).split(","):
         name, eq, value = part.partition("=")
+        if name.strip() in out:
+            raise fail(f"--bearing-sigma {text!r}: {name.strip()} is given twice")
         try:
             out[name.strip()] = float(value)
         except ValueError:
@@ -527,8 +532,11 @@ def select_window(meas: Any, start: str | None, stop: str | None) -> Any:
     keep = ((meas.time >= (t_from if t_from is not None else -float("inf")))
             & (meas.time <= (t_to if t_to is not None else float("inf"))))
     if int(keep.sum()) == 0:
-        raise fail(f"--from/--to: no measurement between {t_from} and {t_to} s (the file "
-                   f"covers {meas.time.min():g} .. {meas.time.max():g} s)")
+        where = (f"--from {start} ({t_from:g} s): no measurement at or after it" if t_to is None
+                 else f"--to {stop} ({t_to:g} s): no measurement at or before it"
+                 if t_from is None else
+                 f"--from/--to: no measurement between {t_from} and {t_to} s")
+        raise fail(f"{where} (the file covers {meas.time.min():g} .. {meas.time.max():g} s)")
     return meas.take(keep)
 
 

@@ -87,7 +87,7 @@ def crlb(
             raise fail("--sensor-position-sigma: the bound with sensor errors takes the "
                        "nuisance as unknown; leave --known-nuisance out")
         bound, loss = with_sensor_errors(bound, meas, opts, sensor_position_sigma)
-    derived = None if at is None else derived_at(bound, at)
+    derived = None if at is None else derived_at(bound, checked_at(at, meas))
     if derived is not None and bound.rank == len(bound.parameters) and not all(
             math.isfinite(derived["ellipse_90"][k]) for k in ("east", "north", "major")):
         raise fail(f"--at {at:g}: the bound overflows so far from the measurement times; "
@@ -173,6 +173,17 @@ def bound_of_scenario(source: str, known_nuisance: bool, drift: bool,
         return compute(scn, known_nuisance=known_nuisance, options=opts), scn, opts
 
 
+def checked_at(at: float, meas: Any) -> float:
+    """Refuse an ``--at`` far from the data as ``tma estimate`` does (rules.time_problem)."""
+    from ..rules import time_problem
+    from ..scenario import Scenario
+
+    times = (meas.simulate(rng=0, noise=False) if isinstance(meas, Scenario) else meas).time
+    if (far := time_problem(at, times, "--at")) is not None:
+        raise fail(far)
+    return at
+
+
 def derived_at(bound: Any, at: float) -> dict[str, Any]:
     """Position, speed, course with their standard deviations, and the 90 % ellipse, at a time."""
     data = {"time": at, **{k: {"value": v, "std": sd if sd == sd and sd != float(
@@ -251,8 +262,14 @@ def gdop(
         raise fail(f"--points {points}: expected 2 to 2000 per side")
     scenario = load_scenario_or_fail(layout)
     (plot,) = check_outputs([("--plot", plot, "picture")], force)
-    with failing(f"{layout}: "):
+    try:
         result = cep_map(scenario, points, half_width, height)
+    except ValueError as e:  # the grid's options by their flags, the layout's problems by file
+        text = str(e)
+        for keyword, flag in (("half_width:", "--half-width"), ("height:", "--height")):
+            if text.startswith(keyword):
+                raise fail(flag + text.removeprefix(keyword[:-1])) from None
+        raise fail(f"{layout}: {text}") from None
     finite50 = result.cep50[np.isfinite(result.cep50)]
     finite90 = result.cep90[np.isfinite(result.cep90)]
     summary = {

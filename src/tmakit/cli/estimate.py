@@ -162,7 +162,7 @@ def estimate(
     meas, record_legs = read_leg_window(files, parse_origin(origin), logs, (start, stop),
                                         leg, snap, turn_rate)
     meas = grouped_by_kind(meas)  # the last reference to the file's order: freed
-    check_exports(more.exports, meas)
+    check_exports(more.exports, meas, more.every)
     note_unused_model_options(meas, model)
     fit = fitter(meas, motion, ref_time, parse_assignments(init, "--init") or None, method,
                  model, (exact, criterion, alpha, accelerations), dim, sensor_position_sigma)
@@ -735,13 +735,13 @@ def check_solution_outputs(html: Path | None, exports: list[Path] | None, force:
                            options=dict(options or {}))
 
 
-def check_exports(exports: list[Path], meas: Any) -> None:
+def check_exports(exports: list[Path], meas: Any, every: float = 60.0) -> None:
     """Refuse, before the fit, an export the data cannot place (no origin, no clock times)."""
     from ..io.solution_files import check_solution_data
 
     for path in exports:
         with failing("--export "):
-            check_solution_data(path, meas)
+            check_solution_data(path, meas, every)
 
 
 def write_solution_outputs(meas: Any, result: Any, outputs: SolutionOutputs, answers: bool,

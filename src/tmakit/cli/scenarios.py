@@ -258,9 +258,12 @@ def _check_track_suffix(fmt: str, track: Path) -> None:
 
 
 def _mapping(mapping: Path | None, map_text: str | None, measure: list[str] | None,
-             track: Path | None = None) -> Any:
+             fmt: str, track: Path | None = None) -> Any:
     if map_text is None and not measure:
         return mapping
+    if fmt in ("rep", "dsf"):  # (the schema would say its measurement list is empty)
+        raise fail(f"--map and --measure apply to wide logs (and the measurement log of gpx "
+                   f"and nmea), not to Debrief replays ({fmt})")
     if mapping is not None:
         raise fail("give the column mapping as --mapping FILE.toml or as --map/--measure, not both")
     from ..io.log_mapping import MappingError, mapping_from_text
@@ -312,7 +315,7 @@ def import_(
     if fmt not in IMPORT_FORMATS:
         raise fail(f"unknown format {format!r}: expected one of {', '.join(IMPORT_FORMATS)}")
     if guess:
-        print_guess(fmt, files)
+        print_guess(fmt, files, output)
         return
     if output is None:
         raise fail("give the measurement file to write: -o obs.parquet (or --guess to "
@@ -328,7 +331,7 @@ def import_(
     check_ranges(ranges)
     options: dict[str, Any] = {
         "format": "rep" if fmt == "dsf" else fmt, "ownship": ownship, "contact": contact,
-        "mapping": _mapping(mapping, map_text, measure,
+        "mapping": _mapping(mapping, map_text, measure, fmt,
                             files[0] if fmt in ("gpx", "nmea") else None),
         "bearing_sigma": bearing_sigma, "range_sigma": range_sigma,
         "frequency_sigma": frequency_sigma, "kinds": kinds, "ranges": ranges, "dim": dim}
@@ -341,10 +344,13 @@ def import_(
     print_import(meas, output)
 
 
-def print_guess(fmt: str, files: list[Path]) -> None:
+def print_guess(fmt: str, files: list[Path], output: Path | None = None) -> None:
     """Print the mapping proposed for a wide log's header (``--guess``)."""
     if fmt != "wide" or len(files) != 1:
         raise fail("--guess proposes the mapping of one wide log: tma import wide FILE --guess")
+    if output is not None:  # (it was left unwritten without a word)
+        raise fail(f"-o {output}: --guess only prints a mapping and imports nothing; check it, "
+                   "then import with --mapping FILE.toml -o")
     from ..io.errors import MeasurementFileError, refuse_unreadable
     from ..io.log_mapping import guess_mapping
 

@@ -57,9 +57,7 @@ def montecarlo(
     output, json_file, partial = check_outputs(
         [("-o", output, "table"), ("--json", json_file, "json"),
          ("-o (partial results)", partial, "table")], force)
-    if runs > max_runs:
-        raise fail(f"--runs {runs:,}: more than the limit of {max_runs:,} runs; raise it with "
-                   "--max-runs")
+    check_runs(runs, max_runs, "; raise it with --max-runs")
     scn = load_scenario_or_fail(scenario)
     with claim_outputs([output, json_file, partial]):  # a second run to them is refused now
         res = _study(scn, partial, estimator=estimator, runs=runs, rng=seed,
@@ -115,6 +113,12 @@ def _write_results(res: Any, output: Path | None, json_file: Path | None, force:
             lost = True
     if lost:
         raise typer.Exit(1)
+
+
+def check_runs(runs: int | None, limit: int = MAX_RUNS, hint: str = "") -> None:
+    """Refuse more ``--runs`` than ``limit`` (a billion runs' seeds alone fill the memory)."""
+    if runs is not None and runs > limit:
+        raise fail(f"--runs {runs:,}: more than the limit of {limit:,} runs{hint}")
 
 
 def save_partial(finished: list[Any], scn: Any, partial: Path | None) -> None:
@@ -197,6 +201,7 @@ def reproduce(
     keep_freed_memory()  # tma's own process: the allocator keeps what the Monte Carlo frees
     if runs is not None and runs < 0:
         raise fail("--runs must be 0 or more")
+    check_runs(runs)
     module = importlib.import_module(REPRODUCTIONS[name])
     extra = _extra_options(name, module, particles=particles, steps=steps, radar=radar,
                            tracker=tracker, dask=dask, chunk=chunk, output=output)
@@ -212,8 +217,10 @@ def reproduce(
     try:
         rep = module.run(**({} if runs is None else {"runs": runs}), seed=seed,
                          progress=not no_progress, **extra)
-    except (ValueError, ImportError) as e:
-        raise fail(str(e)) from None
+    except (ValueError, ImportError) as e:  # ("steps must be ...": named by its flag)
+        text = str(e)
+        raise fail(f"--{text}" if text.split(" ")[0] in extra or text.startswith("runs ")
+                   else text) from None
     if checkpoint is not None:
         checkpoint.finish(rep.study)
     if plot is not None:
@@ -316,7 +323,8 @@ def plan(
         help="TOML scenario file with a [planning] table, or a built-in name "
              "(plan-bearings-only)")],
     output: Annotated[Path | None, typer.Option(
-        "-o", "--output", help="write the per-step table (.csv or .parquet)")] = None,
+        "-o", "--output", help="write the per-step table (.csv or .parquet; finished chunks "
+                               "saved as they end, in NAME.parts/)")] = None,
     plot: Annotated[Path | None, typer.Option(
         help="draw the paths, the range to the target and the error against the bound "
              "(PNG, PDF, SVG)")] = None,
@@ -341,6 +349,7 @@ def plan(
     output, plot = check_outputs([("-o", output, "table"), ("--plot", plot, "picture")], force)
     if runs is not None and runs < 1:
         raise fail("--runs must be 1 or more")
+    check_runs(runs)
     if particles is not None and particles < 2:
         raise fail("--particles must be 2 or more")
     check_particles(particles)
@@ -363,9 +372,10 @@ def plan(
             err.print(f"warning: {warning}")
         from ..montecarlo.planned import plan as run_plan
 
+        checkpoint = None if output is None else _checkpoint(output, force)
         result = run_plan(setup, runs=runs, rng=seed, duration=duration,
                           particles=particles, tracker=tracker, planner=planner,
-                          progress=not no_progress)
+                          progress=not no_progress, on_chunk=checkpoint)
     except ScenarioFileError as e:
         raise fail(str(e)) from None
     except ValueError as e:
@@ -382,7 +392,7 @@ def plan(
         print_plan_summary(result, seed)
     for warning in result.warnings():
         err.print(f"warning: {warning}")
-    write_outputs(result, output, plot, force, err if as_json else out)
+    write_outputs(result, output, plot, force, err if as_json else out, checkpoint)
 
 
 def json_summary(result: Any, seed: int) -> dict[str, Any]:
@@ -418,12 +428,15 @@ def start_warnings(setup: Any) -> list[str]:
 
 
 def write_outputs(result: Any, output: Path | None, plot: Path | None, force: bool,
-                  console: Any) -> None:
-    """Write the per-step table and the picture, saying so on ``console``."""
+                  console: Any, checkpoint: Any = None) -> None:
+    """Write the per-step table (its chunks' parts then removed) and the picture."""
     if output is not None:
         from ..io.tables import write_table
 
-        write_table(output, result.table(), force=force, what="the per-step table")
+        if checkpoint is not None:
+            checkpoint.finish(result.study, result.table())
+        else:
+            write_table(output, result.table(), force=force, what="the per-step table")
         console.print(f"wrote {output}")
     if plot is not None:
         from ..plot.tracks import plot_plan

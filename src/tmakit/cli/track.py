@@ -69,13 +69,13 @@ QDensityOption = Annotated[str, typer.Option(
                         "[T^2/2, T]] per axis, added to --q's")]
 RangePriorOption = Annotated[str | None, typer.Option(
     "--range-prior", help="start at the first bearing: the emitter's range then lies in "
-                          "MIN:MAX (m); default 500:50000 for --filter gsf")]
+                          "MIN:MAX (m, within 1..1e9); default 500:50000 for --filter gsf")]
 SpeedPriorOption = Annotated[float | None, typer.Option(
     "--speed-prior", help="start at the first bearing: the largest plausible speed (m/s, "
-                          "course unknown); default 20")]
+                          "0.001..10000; course unknown); default 20")]
 HeightPriorOption = Annotated[str | None, typer.Option(
     "--height-prior", help="start at the first bearing, 3-D: the emitter's height interval "
-                           "MIN:MAX (m); default 0:12000")]
+                           "MIN:MAX (m, within +-1e9); default 0:12000")]
 ComponentOption = Annotated[str, typer.Option(
     help="the component filter of gsf (the Gaussian sum) or imm: ekf, ukf or ckf "
          "(cubature)")]
@@ -339,7 +339,7 @@ class Watch:
         answer = answer_or_fail(tr, meas, self.sensor)
         from ..results import measurement_warnings
 
-        trust = track_trust(tr, measurement_warnings(meas))
+        trust = track_trust(tr, measurement_warnings(meas) + prior_range_warnings(tr, meas))
         if self.as_json:
             import json
 
@@ -387,7 +387,7 @@ def run_track(meas: Any, filter_name: str, keywords: dict[str, Any], smooth: boo
     except tracking.TrackingError as e:
         raise tracking_failure(e) from None
     except ValueError as e:
-        raise fail(str(e)) from None
+        raise fail(flagged(str(e))) from None
     return tr
 
 
@@ -402,7 +402,8 @@ def report_track(tr: Any, meas: Any, truth: Any, rows: int, as_json: bool, answe
     from .. import tracking
     from ..results import measurement_warnings
 
-    warnings = measurement_warnings(meas) + start_manoeuvre_warnings(tr, meas, options)
+    warnings = (measurement_warnings(meas) + start_manoeuvre_warnings(tr, meas, options)
+                + prior_range_warnings(tr, meas))
     trust = track_trust(tr, warnings)
     if as_json:  # one line: the track is long, and rich's JSON printer slow on it
         typer.echo(json.dumps({**tracking.track_dict(tr, sums=sums),
@@ -432,6 +433,48 @@ def start_manoeuvre_warnings(tr: Any, meas: Any, options: dict[str, Any] | None)
         "measurement times, from which the filter goes on)"), advice=(
         "start inside one leg (--init-window with fewer times, or --prior) or let the "
         "filter follow manoeuvres (--q)"))
+
+
+def prior_range_warnings(tr: Any, meas: Any) -> list[Any]:
+    """Warn (``range-from-prior``) when a track from a prior has a range the data leave open."""
+    from .. import tracking
+    from ..results import SanityWarning
+
+    start = tracking.start_record(tr)
+    if isinstance(start, tracking.BearingStart):
+        prior = f"its prior ({start.prior.describe()})"
+        advice = "give --range-prior and --speed-prior for this emitter"
+    elif isinstance(start, tracking.PriorStart):
+        prior, advice = "the given --prior and --prior-std", "check them"
+    else:
+        return []
+    why = data_range_verdict(meas, len(tr.state_names) // 2)
+    if not why:
+        return []
+    return [SanityWarning("range-from-prior", (
+        f"the data alone do not determine the range ({why}): the track's range comes from "
+        f"{prior}, so its ellipse holds the truth only if the emitter lies within that prior; "
+        f"{advice}, or add data from an own-ship manoeuvre across the line of sight"))]
+
+
+def data_range_verdict(meas: Any, dim: int) -> str:
+    """Say how a constant-velocity fit of the rows leaves the range open ('' if it does not)."""
+    import numpy as np
+
+    from ..batch import estimate
+    from ..motion import ConstantVelocity
+    from ..results.answers import estimate_answer
+
+    fit = "a constant-velocity fit of the same rows"
+    try:
+        result = estimate(meas, ConstantVelocity(dim, float(np.min(meas.time))))
+        if result.status == "unobservable":
+            return f"{fit} is unobservable"
+        weak = estimate_answer(result, meas).undetermined if result.status == "converged" else ()
+    except (ValueError, np.linalg.LinAlgError):  # (no verdict: the track's own checks stand)
+        return ""
+    ranged = [w for w in weak if w.startswith("range")]
+    return f"{fit} leaves the {ranged[0]} undetermined" if ranged else ""
 
 
 def track_trust(tr: Any, warnings: list[Any]) -> Any:
@@ -518,7 +561,10 @@ def start_sentence(tr: Any) -> str:
                    "--speed-prior MAX for this emitter")
                 + (f"; {len(s['rejected'])} earlier bearings rejected by the innovations "
                    f"that followed them (from t = {s['rejected'][0]['time']:g} s)"
-                   if s.get("rejected") else ""))
+                   if s.get("rejected") else "")
+                + (f"; {s['unused_rows']} row{'s' * (s['unused_rows'] != 1)} of other kinds "
+                   "before it not used (a filter started at a bearing takes what follows it)"
+                   if s.get("unused_rows") else ""))
     text = (f"start: batch ML estimate over the first {s['window']} measurement times "
             f"({s['rows']} rows, t <= {s['time']:g} s), {s['status']}, position std "
             f"{s['relative_position_std']:.1%} of the range")
@@ -675,19 +721,20 @@ def parse_bearing_prior(range_prior: str | None, speed_prior: float | None,
         raise fail("--range-prior, --speed-prior and --height-prior start the track at the "
                    "first bearing; they cannot be used with --prior or --init-window")
     from ..filters import BearingPrior
-    from ..filters.bearing_prior import DEFAULT_HEIGHT, DEFAULT_RANGE, DEFAULT_SPEED
+    from ..filters.bearing_prior import (
+        DEFAULT_HEIGHT,
+        DEFAULT_RANGE,
+        DEFAULT_SPEED,
+        prior_problems,
+    )
 
-    given = tuple(n for n, v in (("range", range_prior), ("speed", speed_prior),
-                                 ("height", height_prior)) if v is not None)
+    texts = {"range": range_prior, "speed": speed_prior, "height": height_prior}
+    given = tuple(n for n, v in texts.items() if v is not None)
     lo, hi = DEFAULT_RANGE if range_prior is None else _interval(range_prior, "--range-prior")
     height = DEFAULT_HEIGHT if height_prior is None else _interval(height_prior, "--height-prior")
-    if not (0 < lo < hi):
-        raise fail(f"--range-prior {range_prior!r}: expected 0 < MIN < MAX (m)")
-    if height[0] > height[1]:
-        raise fail(f"--height-prior {height_prior!r}: expected MIN <= MAX (m)")
     speed = DEFAULT_SPEED if speed_prior is None else float(speed_prior)
-    if not (speed > 0 and speed < 1e4):
-        raise fail(f"--speed-prior {speed_prior}: expected a speed > 0 m/s (and below 10 km/s)")
+    for name, expected in prior_problems((lo, hi), speed, height).items():
+        raise fail(f"--{name}-prior {texts[name]!r}: {expected}")
     return BearingPrior(lo, hi, speed, height, given)
 
 
@@ -774,9 +821,17 @@ def check_sums(sums: bool, filter_name: str, as_json: bool, follow: bool) -> Non
 MIN_PARTICLES = 7
 #: The flags of `tma track` for the library parameters its errors name.
 TRACK_FLAGS = {"q": "--q", "dim": "--dim", "prior": "--prior", "prior_std": "--prior-std",
-               "max_relative_std": "--start-std", "tracker": "--filter",
+               "prior_time": "--prior-time", "max_relative_std": "--start-std",
+               "tracker": "--filter",
                "q_density": "--q-density", "bearing_prior": "--range-prior",
-               "init_window": "--init-window"}
+               "init_window": "--init-window", "model_q": "--model-q", "turn_rates": "--turn-rate",
+               "rate_noise": "--turn-rate-noise", "transition": "--transition"}
+
+
+def flagged(message: str) -> str:
+    """Name the flag in a library message that starts with its keyword (``model_q must ...``)."""
+    keyword, _, rest = message.partition(" ")
+    return f"{TRACK_FLAGS[keyword]}: {rest}" if keyword in TRACK_FLAGS and rest else message
 
 
 def tracking_failure(e: Any) -> typer.Exit:
@@ -957,13 +1012,19 @@ class GrowingFiles:
         return any([s.poll() for s in self.sources])  # (every source polled)
 
 
+#: The shortest and longest wait between looks at a followed file (s): more often is a busy
+#: loop, less often than a day is no following (and beyond time_t, an internal error).
+FOLLOW_INTERVAL_S = (0.01, 86_400.0)
+
+
 def watch(paths: list[Path], fmt: str | None, update: Callable[[dict[Path, Path]], bool],
            interval: float, max_updates: int | None, say: Any) -> None:
     """Run ``update`` on the snapshots each time the files grow, until told to stop."""
     from .guard import Terminated
 
-    if not interval > 0:
-        raise fail(f"--interval {interval:g}: expected seconds > 0")
+    if not FOLLOW_INTERVAL_S[0] <= interval <= FOLLOW_INTERVAL_S[1]:
+        raise fail(f"--interval {interval:g}: expected seconds within [{FOLLOW_INTERVAL_S[0]:g}, "
+                   f"{FOLLOW_INTERVAL_S[1]:g}] (a day)")
     if max_updates is not None and max_updates < 1:
         raise fail(f"--max-updates {max_updates}: expected 1 or more")
     for p in paths:

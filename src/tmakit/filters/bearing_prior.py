@@ -15,12 +15,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.arrays import Array
+from ..core.units import REACH_M
 from ..data import MeasurementSet
 from ..measurements import KINDS
 from ..motion.dynamics import state_names
+from ..results.checks import FAST_SPEED
 
 __all__ = ["DEFAULT_HEIGHT", "DEFAULT_RANGE", "DEFAULT_SPEED", "MAX_RANGE_CV", "BearingPrior",
-           "FirstBearing", "first_bearing"]
+           "FirstBearing", "first_bearing", "prior_problems"]
 
 #: Default range interval (m): a surface or air contact held by passive sonar or ESM.
 DEFAULT_RANGE = (500.0, 50_000.0)
@@ -28,6 +30,12 @@ DEFAULT_RANGE = (500.0, 50_000.0)
 DEFAULT_SPEED = 20.0
 #: Default height interval (m, ENU z) of a 3-D track: from the surface to 12 km.
 DEFAULT_HEIGHT = (0.0, 12_000.0)
+#: The range interval a prior may state (m): nearer than 1 m is no bearing's emitter (and a
+#: component's covariance loses its digits), farther than REACH_M leaves the local frame.
+RANGE_LIMITS = (1.0, REACH_M)
+#: The largest speed a prior may state (m/s): above the speed no craft near the Earth
+#: exceeds, and at least 1 mm/s (a smaller velocity variance is singular beside the range's).
+SPEED_LIMITS = (1e-3, FAST_SPEED)
 #: Largest coefficient of variation (range std / range) of a component of the range-
 #: parameterised sum: the EKF's linearisation holds while it is small (Peach 1995, §3).
 MAX_RANGE_CV = 0.12
@@ -83,12 +91,36 @@ def first_bearing(meas: MeasurementSet) -> FirstBearing:
                         float(meas.sigma_si[row]), meas.sensor_state[row].copy(), row)
 
 
-def _interval(value: tuple[float, float], name: str, low: float) -> tuple[float, float]:
-    a, b = (float(v) for v in value)
-    if not (math.isfinite(a) and math.isfinite(b) and low <= a < b):
-        raise ValueError(f"{name} must be an interval MIN:MAX with {low:g} <= MIN < MAX "
-                         f"(finite, m); got {a:g}:{b:g}")
-    return a, b
+def prior_problems(range_m: tuple[float, float], speed_max: float,
+                   height: tuple[float, float]) -> dict[str, str]:
+    """Say what each of ``range``, ``speed`` and ``height`` should have been, if it is not.
+
+    Parameters
+    ----------
+    range_m : tuple of float
+        The range interval (m).
+    speed_max : float
+        The largest speed (m/s).
+    height : tuple of float
+        The height interval (m).
+
+    Returns
+    -------
+    dict of str to str
+        The names of the bad ones, each with what was expected (empty when all are good).
+    """
+    (a, b), (lo, hi), speed = ((float(v) for v in range_m), (float(v) for v in height),
+                               float(speed_max))
+    found: dict[str, str] = {}
+    if not (RANGE_LIMITS[0] <= a < b <= RANGE_LIMITS[1]):
+        found["range"] = (f"expected MIN:MAX with {RANGE_LIMITS[0]:g} <= MIN < MAX <= "
+                          f"{RANGE_LIMITS[1]:g} (m)")
+    if not SPEED_LIMITS[0] <= speed <= SPEED_LIMITS[1]:
+        found["speed"] = (f"expected a largest speed within [{SPEED_LIMITS[0]:g}, "
+                          f"{SPEED_LIMITS[1]:g}] m/s")
+    if not -REACH_M <= lo <= hi <= REACH_M:
+        found["height"] = f"expected MIN:MAX with {-REACH_M:g} <= MIN <= MAX <= {REACH_M:g} (m)"
+    return found
 
 
 @dataclass(frozen=True)
@@ -111,7 +143,9 @@ class BearingPrior:
     Raises
     ------
     ValueError
-        For an empty, negative or non-finite interval or a speed <= 0.
+        For an empty or non-finite interval, or one beyond what a prior may state
+        (:func:`prior_problems`: a range within 1 m .. 1e9 m, a speed within 1 mm/s .. 10 km/s,
+        a height within +-1e9 m).
     """
 
     range_min: float = DEFAULT_RANGE[0]
@@ -121,14 +155,12 @@ class BearingPrior:
     given: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        """Refuse an empty or non-finite interval, or a speed <= 0."""
-        _interval((self.range_min, self.range_max), "the range prior", 1e-9)
-        if not (math.isfinite(self.speed_max) and self.speed_max > 0):
-            raise ValueError(f"the speed prior must be a speed > 0 m/s; got {self.speed_max}")
-        lo, hi = self.height
-        if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
-            raise ValueError(f"the height prior must be an interval MIN:MAX with MIN <= MAX "
-                             f"(m); got {lo:g}:{hi:g}")
+        """Refuse what :func:`prior_problems` finds."""
+        given = {"range": f"{self.range_min:g}:{self.range_max:g}",
+                 "speed": f"{self.speed_max:g}", "height": "{:g}:{:g}".format(*self.height)}
+        found = prior_problems((self.range_min, self.range_max), self.speed_max, self.height)
+        if found:
+            raise ValueError("; ".join(f"the {k} prior {given[k]}: {v}" for k, v in found.items()))
 
     def describe(self) -> str:
         """Say the prior in one line, marking the defaults.

@@ -18,7 +18,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.arrays import Array
 from ..core.linalg import symmetrise
-from ..motion.dynamics import CoordinatedTurn, NearlyConstantVelocity, UnknownRateTurn
+from ..motion.dynamics import (
+    MAX_ACCELERATION,
+    MAX_TURN_RATE,
+    CoordinatedTurn,
+    NearlyConstantVelocity,
+    UnknownRateTurn,
+)
 from ..observation.groups import MeasurementGroup
 from .base import KindOptions, ProcessNoise, TrackingFilter
 from .bearing_prior import BearingPrior, FirstBearing
@@ -436,19 +442,24 @@ def markov_chain(model_q: Sequence[float], transition: ArrayLike | None,
     Without ``turn_rates``, the turns of ``default_rates_deg`` (deg/s) to the left and right.
     """
     extra = [float(v) for v in np.atleast_1d(np.asarray(model_q, dtype=float))]
-    if not all(math.isfinite(v) and v >= 0 for v in extra):
-        raise ValueError(f"model_q must be accelerations >= 0 (m/s^2); got {extra}")
+    if not all(0 <= v <= MAX_ACCELERATION for v in extra):
+        raise ValueError(f"model_q must be accelerations within [0, {MAX_ACCELERATION:g}] "
+                         f"m/s^2 (1000 g); got {extra}")
     if turn_rates is None:
         turn_rates = [math.radians(s * v) for v in default_rates_deg for s in (1.0, -1.0)]
     rates = [float(v) for v in np.atleast_1d(np.asarray(turn_rates, dtype=float))]
-    if not all(math.isfinite(v) and v != 0 for v in rates):
-        raise ValueError(f"turn_rates must be finite and != 0 (rad/s); got {rates}")
+    top = f"{MAX_TURN_RATE:.4g} rad/s ({math.degrees(MAX_TURN_RATE):g} deg/s, a turn a second)"
+    if not all(v != 0 and abs(v) <= MAX_TURN_RATE for v in rates):
+        raise ValueError(f"turn_rates must be != 0 and within +-{top}; got {rates} rad/s "
+                         f"({', '.join(f'{math.degrees(v):g}' for v in rates)} deg/s)")
     if not (math.isfinite(turn_q) and turn_q >= 0):
         raise ValueError(f"turn_q must be an acceleration >= 0 (m/s^2); got {turn_q}")
-    if rate_noise is not None and not (isinstance(rate_noise, (int, float))
-                                       and math.isfinite(rate_noise) and rate_noise >= 0):
-        raise ValueError(f"rate_noise must be a turn rate's random walk >= 0 (rad/s per "
-                         f"sqrt(s)), or None for no estimated-rate turn; got {rate_noise!r}")
+    if rate_noise is not None and not isinstance(rate_noise, (int, float)):
+        raise ValueError(f"rate_noise must be a number or None; got {rate_noise!r}")
+    if rate_noise is not None and not 0 <= rate_noise <= MAX_TURN_RATE:
+        raise ValueError(f"rate_noise must be a turn rate's random walk within [0, {top}] per "
+                         f"sqrt(s), or None for no estimated-rate turn; got {rate_noise!r} "
+                         f"({math.degrees(rate_noise):g} deg/s)")
     count = 1 + len(extra) + (rate_noise is not None) + len(rates)
     chain = MarkovChain(count, transition, sojourn)
     mu = (np.full(count, 1.0 / count) if probabilities is None

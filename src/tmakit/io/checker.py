@@ -559,6 +559,18 @@ def _stripped(text: NDArray[np.object_]) -> NDArray[np.object_]:
     return np.array([str(u).strip() for u in uniques] + [""], dtype=object)[codes]
 
 
+def case_problem(columns: Collection[str]) -> str | None:
+    """Say which columns are tmakit's in another case (names are matched exactly), or None."""
+    known = {*COLUMN_ORDER, *GEO_COLUMNS, *REF_STATE_COLUMNS, "ref_sensor", "carrier", "tonal"}
+    cased = [c for c in columns if c != c.lower() and c.lower() in known
+             and c.lower() not in columns]
+    if not cased:
+        return None
+    return ("column names are lower case in tmakit's measurement file: rename "
+            + ", ".join(f"{c!r} to {c.lower()!r}" for c in cased[:6])
+            + (f" (and {len(cased) - 6} more)" if len(cased) > 6 else ""))
+
+
 def check_columns(columns: Collection[str], kinds: list[str], problems: Problems) -> Layout:
     """Record missing or conflicting columns, given the kinds present in the file."""
     has = set(columns).__contains__
@@ -673,7 +685,7 @@ def check_cells(frame: pd.DataFrame, num: Numbers, kind: NDArray[np.object_],
         record("sensor", np.array([s.strip() == "" for s in text["sensor"]], dtype=bool),
                "a sensor id (text)")
     if "kind" in text:
-        record("kind", ~np.isin(text["kind"].astype(str), list(KINDS)),
+        record("kind", ~np.isin(kind.astype(str), list(KINDS)),  # (stripped, as it is read)
                f"one of the kinds {', '.join(KINDS)}")
     for c in ("time", "value", "sigma", *SENSOR_STATE_COLUMNS, *GEO_COLUMNS):
         if c in num:

@@ -32,6 +32,7 @@ from .checker import (
     Problems,
     RawTable,
     SensorRecord,
+    case_problem,
     check_columns,
     check_table,
     file_columns,
@@ -144,8 +145,9 @@ def _checked_header(path: Path, header: list[str], header_line: int,
             problems.append(f"line {header_line}: column {name!r} appears more than once in "
                             "the header")
         seen.add(name)
-    problems += [f"line {header_line}: column {i + 1} of the header has no name"
-                 for i, name in enumerate(names) if not name]
+    problems += [f"line {header_line}: column {i + 1} of the header has no name" + (
+                 " (pandas writes its index there: to_csv(..., index=False) leaves it out)"
+                 if i == 0 else "") for i, name in enumerate(names) if not name]
     problems += record_problems
     if problems:
         raise MeasurementFileError(path, problems)
@@ -208,7 +210,8 @@ def _stream_header(path: Path, start: int) -> list[str] | None:
         return None
     problems = Problems(RawTable(None, {}, None))
     check_columns(stripped, [], problems)  # (the kinds' own needs are checked once read)
-    if (problems.file or "ref_sensor" in stripped or "carrier" in stripped  # the checker's
+    if (problems.file or case_problem(stripped) or "ref_sensor" in stripped
+            or "carrier" in stripped  # the checker's
             or (any(c in stripped for c in REF_STATE_COLUMNS) and "time_ref" not in stripped)):
         return None
     return names
@@ -517,7 +520,14 @@ def load_csv(path: Path, as_text: bool = False) -> RawTable:
     metadata, start, pre_lines = found
     body = data[start:] if start else data
     del data
+    end = len(body)
+    while end and body[end - 1:end].isspace():  # (the trailing blanks only: no copy of a
+        end -= 1                                  # file that ends as files do)
+    if body[end:] not in (b"", b"\n", b"\r\n"):  # trailing lines of spaces are blank lines,
+        body = body[:end] + b"\n"                 # as empty ones are (not one-field records)
     names, raw_names, lines = _record_lines(path, body, pre_lines)
+    if (cased := case_problem(names)) is not None:
+        raise MeasurementFileError(path, [cased])
     try:
         frame = _read_table(body, raw_names, as_text)
     except (pa.ArrowException, ValueError) as e:

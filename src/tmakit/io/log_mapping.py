@@ -13,7 +13,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from ..core.input_files import read_toml
 from ..measurements import KINDS
@@ -108,6 +115,13 @@ class VelocityMap(_Strict):
         return self
 
 
+def _sensor_id(name: str | None) -> str | None:
+    """Refuse a blank sensor id (a file refuses an empty ``sensor`` cell)."""
+    if name is not None and not name.strip():
+        raise ValueError(f"expected a sensor id (text), found {name!r}")
+    return name
+
+
 class MeasurementMap(_Strict):
     """One measurement column: its kind, unit and sigma (or sigma column)."""
 
@@ -119,6 +133,11 @@ class MeasurementMap(_Strict):
     reference: Literal["true", "relative"] = "true"
     ambiguous: str | None = None
     sensor: str | None = Field(default=None, min_length=1)
+
+    @field_validator("sensor")
+    @classmethod
+    def _named(cls, v: str | None) -> str | None:
+        return _sensor_id(v)
 
     @model_validator(mode="after")
     def _kind_unit(self) -> MeasurementMap:
@@ -158,6 +177,11 @@ class LogMapping(_Strict):
     altitude: Literal["ellipsoid", "msl"] | None = None
     dim: Literal[2, 3] | None = None
     measurement: list[MeasurementMap] = Field(min_length=1)
+
+    @field_validator("sensor")
+    @classmethod
+    def _named(cls, v: str) -> str:
+        return str(_sensor_id(v))
 
     @model_validator(mode="after")
     def _where(self) -> LogMapping:
@@ -200,11 +224,15 @@ def mapping_from_text(text: str, measures: list[str], track: str | None = None) 
     data: dict[str, Any] = {} if track is None else {"track": str(track)}
     position: dict[str, str] = {}
     velocity: dict[str, str] = {}
+    seen: set[str] = set()
     for part in (p for p in text.split(",") if p.strip()):
         key, eq, value = (s.strip() for s in part.partition("="))
         if not eq or not key or not value:
             raise MappingError(f"--map {text!r}: expected key=value pairs separated by commas "
                                f"(problem at {part!r})")
+        if key in seen:  # (the last was taken without a word)
+            raise MappingError(f"--map {text!r}: {key} is given twice")
+        seen.add(key)
         if key in _POSITION_KEYS:
             position[key] = value
         elif key in _VELOCITY_KEYS:
@@ -380,7 +408,10 @@ def guess_mapping(path: str | os.PathLike[str]) -> MappingGuess:
 
     path = Path(path)
     if path.suffix.lower() in (".parquet", ".pq"):
-        frame = pd.read_parquet(path).head(5).astype(str)
+        import pyarrow.parquet as pq
+
+        table = pq.read_table(path).slice(0, 5)  # (an index pandas wrote is a column too)
+        frame = table.to_pandas(ignore_metadata=True).astype(str)
     else:
         frame = pd.read_csv(path, dtype=str, nrows=5, encoding="utf-8-sig",
                             sep=csv_separator(path))

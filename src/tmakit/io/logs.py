@@ -326,10 +326,12 @@ def parse_clock_times(values: Sequence[object], unit: str = "s"
     if text.any():
         stamps = pd.to_datetime(series[text].astype(str).str.strip(), utc=True, errors="coerce",
                                 format="ISO8601")
-        ns = stamps.dt.tz_convert("UTC").dt.tz_localize(None).astype("datetime64[ns]")
-        values_ns = ns.to_numpy().astype(np.int64)
-        ok = stamps.notna().to_numpy() & (values_ns >= 0) & (values_ns < LATEST_NS)
-        out[np.flatnonzero(text)[ok]] = values_ns[ok]
+        # pandas keeps a stamp beyond datetime64[ns]'s years (1677-2262) at a coarser unit:
+        # the plausible years are picked before the conversion to ns.
+        ok = (stamps.notna() & (stamps >= pd.Timestamp(PLAUSIBLE_YEARS[0], 1, 1, tz="UTC"))
+              & (stamps < pd.Timestamp(PLAUSIBLE_YEARS[1], 1, 1, tz="UTC"))).to_numpy()
+        ns = stamps[ok].dt.tz_convert("UTC").dt.tz_localize(None).astype("datetime64[ns]")
+        out[np.flatnonzero(text)[ok]] = ns.to_numpy().astype(np.int64)
         bad[np.flatnonzero(text)[~ok]] = True
     return out, bad
 

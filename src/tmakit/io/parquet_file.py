@@ -8,7 +8,13 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..data import MeasurementSet
-from .checker import PARQUET_METADATA_PREFIX, RawTable, check_table, file_columns
+from .checker import (
+    PARQUET_METADATA_PREFIX,
+    RawTable,
+    case_problem,
+    check_table,
+    file_columns,
+)
 from .errors import MeasurementFileError
 from .formats import Format, register_format
 from .tables import write_table
@@ -33,9 +39,11 @@ def load_parquet(path: Path) -> RawTable:
     names = [str(n).strip() for n in table.column_names]
     problems = [f"column {name!r} appears more than once"
                 for i, name in enumerate(names) if name in names[:i]]
+    problems += [cased] if (cased := case_problem(names)) is not None else []
     if problems:
         raise MeasurementFileError(path, problems)
-    frame = table.to_pandas().reset_index(drop=True)
+    # (ignore_metadata: an index pandas wrote, df.set_index("time"), is a column as written)
+    frame = table.to_pandas(ignore_metadata=True).reset_index(drop=True)
     frame.columns = names
     return RawTable(frame, metadata, None)
 

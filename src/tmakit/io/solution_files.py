@@ -34,14 +34,20 @@ MAX_POINTS = 10_000
 def solution_answers(meas: MeasurementSet, result: EstimateResult, every: float = 60.0,
                      sensor: str | None = None, level: float = 0.95) -> list[Answer]:
     """Give the solution's answers every ``every`` seconds over the data's span."""
+    return [estimate_answer(result, meas, time=float(t), sensor=sensor, level=level)
+            for t in solution_times(meas, every)]
+
+
+def solution_times(meas: MeasurementSet, every: float) -> np.ndarray:
+    """Give the solution points' times, every ``every`` s and the last; refuse too many."""
     if not every > 0:
         raise ValueError(f"the step between solution points must be > 0 s, got {every:g}")
     t0, t1 = float(meas.time.min()), float(meas.time.max())
-    times = np.append(np.arange(t0, t1, every), t1)
-    if times.size > MAX_POINTS:
-        raise ValueError(f"{times.size} solution points at one every {every:g} s: more than "
-                         f"{MAX_POINTS}; write fewer (a longer step)")
-    return [estimate_answer(result, meas, time=float(t), sensor=sensor, level=level) for t in times]
+    count = math.ceil((t1 - t0) / every) + 1  # (counted before np.arange allocates them)
+    if count > MAX_POINTS:
+        raise ValueError(f"{count:.6g} solution points at one every {every:g} s: more than "
+                         f"{MAX_POINTS}; write fewer (a longer step, --export-every)")
+    return np.append(np.arange(t0, t1, every), t1)
 
 
 def _dms(value: float, hemispheres: str, width: int) -> str:
@@ -177,8 +183,12 @@ def _write_kml(path: Path, answers: list[Answer], origin: tuple[float, float, fl
     path.write_text(kml.kml(), encoding="utf-8")
 
 
-def check_solution_data(path: str | Path, meas: MeasurementSet) -> None:
-    """Refuse (ValueError) a set that cannot place a solution on the Earth (.rep: nor in time)."""
+def check_solution_data(path: str | Path, meas: MeasurementSet, every: float = 60.0) -> None:
+    """Refuse (ValueError) data that cannot place a solution, time it (.rep) or space it."""
+    try:
+        solution_times(meas, every)
+    except ValueError as e:
+        raise ValueError(f"{path}: {e}") from None
     if origin_of(meas) is None:
         raise ValueError(f"{path}: the measurements have no ENU origin (latitude/longitude): "
                          "give --origin LAT,LON[,ALT]")
@@ -198,7 +208,7 @@ def write_solution(path: str | Path, meas: MeasurementSet, result: EstimateResul
                          f"expected {', '.join(SOLUTION_SUFFIXES)}")
     if result.status != "converged" or not np.all(np.isfinite(result.estimate)):
         raise ValueError(f"{path}: not written: the estimate is {result.status}, no solution")
-    check_solution_data(path, meas)
+    check_solution_data(path, meas, every)
     origin = origin_of(meas)
     assert origin is not None
     answers = solution_answers(meas, result, every, sensor, level)

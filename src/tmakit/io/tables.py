@@ -275,9 +275,10 @@ class LoopCheckpoint:
         self.saved.append(write_table(self.parts / name, chunk.table(), force=True,
                                       what="a chunk of the per-step table"))
 
-    def finish(self, study: ClosedLoopStudy) -> Path:
-        """Write the whole table, then remove the parts folder."""
-        out = write_table(self.path, study.table(), force=self.force, what="the per-step table")
+    def finish(self, study: ClosedLoopStudy, table: pd.DataFrame | None = None) -> Path:
+        """Write the whole table (``table``, default the study's), then remove the parts."""
+        out = write_table(self.path, study.table() if table is None else table,
+                          force=self.force, what="the per-step table")
         if self.parts.is_dir():
             shutil.rmtree(self.parts)
         return out

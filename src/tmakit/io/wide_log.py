@@ -97,9 +97,13 @@ def _load(path: Path) -> _Table:
         raise MeasurementFileError(path, ["no such file"])
     refuse_unreadable(path, binary=path.suffix.lower() in (".parquet", ".pq"))
     if path.suffix.lower() in (".parquet", ".pq"):
-        try:
-            return _Table(path, pd.read_parquet(path).reset_index(drop=True), None)
-        except (OSError, ValueError) as e:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        try:  # (an index pandas wrote, df.set_index("utc"), is a column as written)
+            frame = pq.read_table(path).to_pandas(ignore_metadata=True)
+            return _Table(path, frame.reset_index(drop=True), None)
+        except (OSError, ValueError, pa.ArrowException) as e:
             raise MeasurementFileError(path, [f"cannot be read as Parquet ({e})"]) from None
     with open(path, encoding="utf-8-sig", errors="replace") as f:
         if f.readline().startswith(FORMAT_LINE):
@@ -381,6 +385,11 @@ def _assemble(tab: _Table, m: LogMapping, t: NDArray[np.float64], states: NDArra
     from .log_mapping import UNITS
 
     ids = _sensor_ids(tab, m)
+    if m.sensor_column and m.sensor_column in tab.frame.columns:  # (an id is text, not blank)
+        raw = tab.frame[m.sensor_column]
+        blank = (raw.isna() | (raw.astype(str).str.strip() == "")).to_numpy()
+        tab.problems += [f"{tab.where(int(k), m.sensor_column)}: expected a sensor id (text), "
+                         "found an empty cell" for k in np.flatnonzero(blank)[:25]]
     own = _column_sensors(m, metadata)
     parts: list[tuple[NDArray, ...]] = []
     where: list[str] = []

@@ -19,6 +19,9 @@ from ..core.units import SPEED_OF_LIGHT
 from .base import Jacobian, MeasurementModel, ValueRange, as_rel, dot3
 from .range_rate import range_rate, range_rate_and_gradient, range_rate_row
 
+#: What a propagation speed must be (no wave outruns light).
+PROPAGATION_SPEED = f"expected a speed within (0, {SPEED_OF_LIGHT:.0f}] m/s (light's)"
+
 
 class Frequency(MeasurementModel):
     """Received carrier frequency ``f_c(t) (1 - rdot / c)``, Hz (also in files).
@@ -48,8 +51,8 @@ class Frequency(MeasurementModel):
                  speed_of_light: float | NotGiven = NOT_GIVEN) -> None:
         c = renamed_keyword("Frequency", "speed_of_light", speed_of_light, "propagation_speed",
                             propagation_speed, SPEED_OF_LIGHT)
-        if not (np.isfinite(c) and c > 0):
-            raise ValueError(f"frequency: propagation speed {c!r}: expected a speed > 0 (m/s)")
+        if not 0 < c <= SPEED_OF_LIGHT:
+            raise ValueError(f"frequency: propagation speed {c!r}: {PROPAGATION_SPEED}")
         self.drift = bool(drift)
         self.c = float(c)
 
@@ -63,9 +66,9 @@ class Frequency(MeasurementModel):
             c = float(text)
         except ValueError:
             c = float("nan")
-        if not (np.isfinite(c) and c > 0):
-            raise ValueError("metadata frequency_propagation_speed: expected a speed > 0 (m/s),"
-                             f" found {text!r}")
+        if not 0 < c <= SPEED_OF_LIGHT:
+            raise ValueError(f"metadata frequency_propagation_speed: {PROPAGATION_SPEED}, found "
+                             f"{text!r}")
         return {"propagation_speed": c}
 
     @property

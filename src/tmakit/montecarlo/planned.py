@@ -8,6 +8,7 @@ sensor's own ``[[sensors]]`` path.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -18,11 +19,12 @@ from ..core.keywords import NOT_GIVEN, NotGiven, RngLike, renamed_keyword, study
 from ..planning import MissionPlanner
 from ..planning.policies import MissionPolicy, Policy, TrackPolicy, passive
 from ..planning.setup import PlanningSetup, load_planning
-from ..scenario.planning_table import MAX_DECISIONS, PLANNERS
+from ..scenario.planning_table import MAX_DECISIONS, PLANNERS, decisions_text
 from .closed_loop import (
     MIN_RUNS_INTERVAL,
     ClosedLoopStudy,
     LoopCase,
+    LoopChunk,
     LoopSetup,
     closed_loop_study,
 )
@@ -256,9 +258,9 @@ def _changes(setup: PlanningSetup, duration: float | None, particles: int | None
                              f"of {setup.interval:g} s; got {duration} s")
         changes["steps"] = round(ratio)
         if changes["steps"] > MAX_DECISIONS:
-            raise ValueError(f"duration {duration:g} s: {changes['steps']:,} decisions of "
-                             f"{setup.interval:g} s per run, more than the limit of "
-                             f"{MAX_DECISIONS:,}")
+            raise ValueError(f"duration {duration:g} s: {decisions_text(changes['steps'])} "
+                             f"decisions of {setup.interval:g} s per run, more than the limit "
+                             f"of {MAX_DECISIONS:,}")
     if particles is not None:
         changes["particles"] = particles
     if tracker is not None:
@@ -275,7 +277,8 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
          rng: RngLike = 0, duration: float | None = None, particles: int | None = None,
          tracker: str | None = None, planner: str | None = None, fixed: bool = True,
          dask: Any = None, progress: bool = False,
-         seed: int | NotGiven | None = NOT_GIVEN) -> PlanRun:
+         seed: int | NotGiven | None = NOT_GIVEN,
+         on_chunk: Callable[[LoopChunk], None] | None = None) -> PlanRun:
     """Run a scenario's planned sensor, and its fixed pattern, in the closed loop ``runs`` times.
 
     Parameters
@@ -304,6 +307,9 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
         Show a progress bar.
     seed : int or None, optional
         Deprecated: ``rng``.
+    on_chunk : callable, optional
+        Called with each finished :class:`~tmakit.montecarlo.closed_loop.LoopChunk` (``tma plan
+        -o`` saves each one as it ends: a long study interrupted keeps its finished runs).
 
     Returns
     -------
@@ -332,5 +338,5 @@ def plan(scenario: str | os.PathLike[str] | PlanningSetup, *, runs: int | None =
     if not isinstance(pattern, str):
         cases.append(loop_case(setup, FIXED, pattern))
     study = closed_loop_study(cases, runs=setup.runs if runs is None else runs, seed=seed_used,
-                              dask=dask, progress=progress)
+                              dask=dask, progress=progress, on_chunk=on_chunk)
     return PlanRun(setup, study, pattern if isinstance(pattern, str) else None)

@@ -15,6 +15,15 @@ from typing import cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.units import REACH_M, SPEED_OF_LIGHT
+
+#: The largest value of a position or a speed parameter (m, m/s): the rules' reach.
+_REACH = {**dict.fromkeys(("x", "y", "z"), REACH_M),
+          **dict.fromkeys(("vx", "vy", "vz", "speed"), SPEED_OF_LIGHT)}
+#: What a position or a speed parameter must be.
+WITHIN_REACH = (f"expected positions within {REACH_M:g} m of the origin and speeds below "
+                "light's (m, m/s)")
+
 
 class MotionModel(ABC):
     """Target motion model: named parameters, states at times, and their derivatives."""
@@ -182,6 +191,23 @@ class MotionModel(ABC):
                 f"(expected {', '.join(self.param_names)})"
             )
         return np.array([float(values[name]) for name in self.param_names])
+
+    def beyond_reach(self, theta: ArrayLike) -> list[str]:
+        """Name the position and speed parameters of ``theta`` beyond the rules' reach.
+
+        Parameters
+        ----------
+        theta : array_like
+            ``(p,)``, SI.
+
+        Returns
+        -------
+        list of str
+            ``["x=1e+300", ...]``: positions beyond 1e9 m, speeds beyond light's, NaN.
+        """
+        return [f"{n}={v:g}" for n, v in zip(self.param_names, np.ravel(theta).tolist(),
+                                              strict=True)
+                if n in _REACH and not abs(v) <= _REACH[n]]
 
     def as_dict(self, theta: ArrayLike) -> dict[str, float]:
         """Name every entry of a single parameter vector.

@@ -15,6 +15,13 @@ from numpy.typing import ArrayLike
 
 from ..core.arrays import Array
 
+#: The largest process noise (acceleration std, m/s^2) a track takes: 1000 g.  Beyond it
+#: the filter ignores its own motion model and the number is a unit mistake or garbage.
+MAX_ACCELERATION = 1e4
+#: The fastest coordinated turn a model may take (rad/s): a full turn a second, beyond any
+#: craft's; also the largest random walk of an estimated turn rate (rad/s per sqrt(s)).
+MAX_TURN_RATE = 2.0 * math.pi
+
 
 def state_names(dim: int) -> tuple[str, ...]:
     """Name the filter state components.
@@ -269,9 +276,9 @@ class UnknownRateTurn(NearlyConstantVelocity):
     def __post_init__(self) -> None:
         """Refuse a bad ``rate_noise``, and what the parent refuses."""
         super().__post_init__()
-        if not (math.isfinite(self.rate_noise) and self.rate_noise >= 0):
-            raise ValueError(f"the turn rate's noise must be finite and >= 0 (rad/s per "
-                             f"sqrt(s)); got {self.rate_noise}")
+        if not 0 <= self.rate_noise <= MAX_TURN_RATE:
+            raise ValueError(f"the turn rate's noise must be within [0, {MAX_TURN_RATE:.4g}] "
+                             f"(rad/s per sqrt(s)); got {self.rate_noise}")
 
     @property
     def n_state(self) -> int:

@@ -19,6 +19,7 @@ from ..scenario.planning_table import (
     KeepOutSpec,
     PlanningSpec,
     RangeConstraintSpec,
+    decisions_text,
 )
 from ..sensors import Actions, PlatformKinematics, PlatformState, platform_configuration
 from .constraints import (
@@ -302,8 +303,8 @@ class _Build:
             raise ValueError(f"planning.duration: {self.spec.duration:g} s is not a whole "
                              f"number (>= 1) of decision intervals of {interval:g} s")
         if steps > MAX_DECISIONS:
-            raise ValueError(f"planning.duration: {steps:,} decisions of {interval:g} s, more "
-                             f"than the limit of {MAX_DECISIONS:,}")
+            raise ValueError(f"planning.duration: {decisions_text(steps)} decisions of "
+                             f"{interval:g} s, more than the limit of {MAX_DECISIONS:,}")
         return int(steps)
 
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..bounds.layout import LayoutRows, cep, layout_information
 from ..core.arrays import Array
+from ..core.units import REACH_M
 from ..data import MeasurementSet
 from ..scenario import Scenario
 from .frame import MapFrame
@@ -61,8 +62,11 @@ def cep_map(scenario: Scenario, points: int = 100, half_width: float | None = No
     rows, ignored = layout_rows(scenario)
     ce, cn, default = _default_extent(rows)
     half = default if half_width is None else float(half_width)
-    if not half > 0:
-        raise ValueError(f"half_width: expected a positive distance (m), found {half_width}")
+    if not 0 < half <= REACH_M:  # (farther, the grid leaves the local frame: every CEP inf)
+        raise ValueError(f"half_width: expected a distance within (0, {REACH_M:g}] m, found "
+                         f"{half_width}")
+    if not abs(height) <= REACH_M:
+        raise ValueError(f"height: expected a height within +-{REACH_M:g} m, found {height}")
     east = ce + np.linspace(-half, half, points)
     north = cn + np.linspace(-half, half, points)
     ee, nn = np.meshgrid(east, north)

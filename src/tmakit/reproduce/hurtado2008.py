@@ -30,6 +30,7 @@ from ..planning.policies import FixedPolicy
 
 __all__ = ["CASES", "OPTIONS", "RADARS", "SETUP", "TRACKERS", "Hurtado2008Reproduction",
            "Hurtado2008Setup", "cases", "claims", "plot", "radar_plan", "run"]
+from ..scenario.planning_table import MAX_DECISIONS, decisions_text
 from ..sensors.platform import HURTADO_NEHORAI_2008, PlatformState
 from .common import Reproduction, Section
 
@@ -172,8 +173,9 @@ def run(runs: int = 100, seed: int = 1, progress: bool = True, *, particles: int
     """Run the four cases and check the paper's claims (§5, Figs. 1-3)."""
     if runs < 1:
         raise ValueError(f"runs must be >= 1 for this reproduction, got {runs}")
-    if steps is not None and steps < 3:
-        raise ValueError(f"steps must be >= 3, got {steps}")
+    if steps is not None and not 3 <= steps <= MAX_DECISIONS:  # (1e8 ran on for hours)
+        raise ValueError(f"steps must be within [3, {MAX_DECISIONS:,}] (decisions per run, "
+                         f"as a [planning] duration), got {decisions_text(steps)}")
     if tracker not in TRACKERS:
         raise ValueError(f"tracker must be one of {', '.join(TRACKERS)}, got {tracker!r}")
     study = closed_loop_study(cases(radar, particles, steps, tracker), runs, seed, chunk,

@@ -188,7 +188,7 @@ def separated_solutions(best: EstimateResult, others: Sequence[EstimateResult],
     kept = [_state(best, meas, time)]
     if kept[0] is None:
         return out
-    same = float(chi2_dist.ppf(1.0 - alpha, 4))
+    same = float(chi2_dist.isf(alpha, 4))
     def statistic(r: EstimateResult) -> float:
         return float(r.chi2 + price * _unknowns(r) - best.chi2 - price * d)
 

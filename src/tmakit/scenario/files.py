@@ -74,7 +74,8 @@ class LegSpec(_Strict):
 
     duration: float = Field(gt=0, allow_inf_nan=True,
                             description="seconds; inf for a last leg that never ends")
-    turn_rate_deg_s: float = 0.0
+    turn_rate_deg_s: float = Field(default=0.0, ge=-360.0, le=360.0,
+                                   description="a turn a second at most (motion.MAX_TURN_RATE)")
     speed: float | None = Field(default=None, gt=0)
 
 
@@ -95,7 +96,7 @@ class LegsSpec(_Strict):
     start: Point | None = None
     start_geodetic: GeoPoint | None = None
     start_time: float = 0.0
-    heading_deg: float
+    heading_deg: float = Field(ge=-360.0, le=360.0)
     speed: float = Field(gt=0)
     legs: list[LegSpec] = Field(min_length=1)
 

@@ -16,6 +16,11 @@ PLANNING_TRACKERS = ("pf", "ekf", "ukf")
 #: Most decisions of one run a duration may ask for (the per-step table holds a row each;
 #: 1e11 ran out of memory).
 MAX_DECISIONS = 1_000_000
+
+
+def decisions_text(count: int) -> str:
+    """Say a number of decisions: with thousands separators, or 1e+299 beyond 15 digits."""
+    return f"{count:,}" if count < 10**15 else f"{count:.3g}"
 #: The planners a ``[planning]`` table may name; ``"auto"`` is the mission planner for a
 #: passive sensor (:func:`tmakit.planning.policies.passive`), else the horizon planner.
 PLANNERS = ("auto", "mission", "horizon")

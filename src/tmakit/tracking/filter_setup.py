@@ -17,6 +17,7 @@ from ..data import MeasurementSet
 from ..filters import FILTERS, NearlyConstantVelocity, TrackingFilter, state_names
 from ..filters.base import KindOptions
 from ..motion import motion_from_name
+from ..motion.dynamics import MAX_ACCELERATION
 from .errors import TrackingError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -61,11 +62,6 @@ def filter_dim(meas: MeasurementSet, dim: int | None = None) -> int:
         return 3 if motion_from_name(name).dim == 3 else 2
     except ValueError:
         return 2
-
-
-#: The largest process noise (acceleration std, m/s^2) a track takes: 1000 g.  Beyond it
-#: the filter ignores its own motion model and the number is a unit mistake or garbage.
-MAX_ACCELERATION = 1e4
 
 
 def _per_axis(value: float | ArrayLike, dim: int, name: str, unit: str, axes: str,

@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..batch.ml import MaximumLikelihood, plausible_chi2
 from ..core import chi2
 from ..core.arrays import Array
+from ..core.units import REACH_M, SPEED_OF_LIGHT
 from ..data import MeasurementSet
 from ..filters import BearingPrior, FirstBearing, Track, first_bearing
 from ..measurements import model_for
@@ -37,6 +38,7 @@ from ..motion import ConstantVelocity
 from ..observation import NoiseModel, ObservationModel
 from ..observation.groups import time_blocks
 from ..results.estimate import EstimateResult
+from ..rules import time_problem
 from .errors import MissingNuisanceError, StartError, TrackingError
 from .filter_setup import FilterSetup, state_vector
 
@@ -404,6 +406,8 @@ class BearingStart:
         The innovation test of the start.
     rejected : tuple of Rejection
         Earlier bearings whose starts the test rejected (window 1: one bearing).
+    unused : int
+        Rows of other kinds before ``time``, which a filter started there cannot take.
     """
 
     method: ClassVar[str] = "first-bearing"
@@ -417,6 +421,7 @@ class BearingStart:
     first: FirstBearing
     confirmation: Confirmation | None = None
     rejected: tuple[Rejection, ...] = ()
+    unused: int = 0
 
     def as_dict(self) -> dict[str, Any]:
         """Return the JSON form.
@@ -425,7 +430,8 @@ class BearingStart:
         -------
         dict
             ``method`` (``"first-bearing"``), ``time`` (s), ``bearing_deg``, ``row``, ``prior``,
-            ``mean`` and ``std`` by name (m, m/s), ``confirmation`` and ``rejected``.
+            ``mean`` and ``std`` by name (m, m/s), ``confirmation``, ``rejected`` and
+            ``unused_rows`` (rows of other kinds before the start).
         """
         std = [math.sqrt(max(float(v), 0.0)) for v in self.covariance.diagonal()]
         return {"method": self.method, "time": self.time,
@@ -435,7 +441,7 @@ class BearingStart:
                 "std": dict(zip(self.state_names, std, strict=True)),
                 "confirmation": None if self.confirmation is None
                 else self.confirmation.as_dict(),
-                "rejected": [r.as_dict() for r in self.rejected]}
+                "rejected": [r.as_dict() for r in self.rejected], "unused_rows": self.unused}
 
 
 #: What an initiator returns.
@@ -1199,18 +1205,33 @@ class PriorInitiator(Initiator):
         Raises
         ------
         TrackingError
-            A prior component missing, unknown or not finite, or a std <= 0.
+            A prior component missing, unknown, not finite or beyond the rules' reach (1e9 m,
+            light's speed), a std <= 0 or beyond that reach, or a prior time after the first
+            measurement or more than 100 spans of the data before it.
         MissingNuisanceError
             Nuisance values the measurement kinds need are not given.
         """
         names = setup.state_names
         mean = state_vector(self.mean, names, "prior")
         std = state_vector(self.std, names, "prior_std")
-        if np.any(std <= 0):
-            raise TrackingError(f"prior_std: standard deviations must be > 0, got "
+        reach = np.where(np.arange(len(names)) < setup.dim, REACH_M, SPEED_OF_LIGHT)
+        if np.any(np.abs(mean) > reach):
+            raise TrackingError(f"prior: expected positions within {REACH_M:g} m of the origin "
+                                f"and speeds below light's, got {mean.tolist()}", "prior")
+        if np.any(std <= 0) or np.any(std > reach):
+            raise TrackingError(f"prior_std: standard deviations must be > 0 and at most "
+                                f"{REACH_M:g} m ({SPEED_OF_LIGHT:.0f} m/s for a velocity), got "
                                 f"{std.tolist()}", "prior_std")
         _check_nuisance(meas, setup.options, self.nuisance)
-        t0 = float(np.min(meas.time)) if self.time is None else self.time
+        first = float(np.min(meas.time))
+        t0 = first if self.time is None else self.time
+        if t0 > first:
+            raise TrackingError(f"{{prior_time}} {t0:g}: after the first measurement (t = "
+                                f"{first:g} s); a filter runs forward from its prior: give a "
+                                "time at or before it, or leave out the rows before it",
+                                "prior_time", ["prior_time"])
+        if (far := time_problem(t0, meas.time, "{prior_time}")) is not None:
+            raise TrackingError(far, "prior_time", ["prior_time"])
         cov = np.diag(std**2)
         filt = setup.from_prior(mean, cov, t0, self.nuisance)
         start = PriorStart(t0, mean, std, cov, dict(self.nuisance), names)
@@ -1257,25 +1278,29 @@ class BearingInitiator(Initiator):
         """
         _check_nuisance(meas, setup.options, self.nuisance)
         rejected: list[Rejection] = []
+        given = meas
         while True:
             try:
                 first = first_bearing(meas)
             except ValueError as e:
                 raise StartError(str(e) if not rejected else "every bearing's start was "
                                  "rejected by the innovations that followed it: " + "; ".join(
-                                     r.describe() for r in rejected[:3]), "bearing_prior"
-                                 ) from None
+                                     r.describe() for r in rejected[:3])
+                                 + f"; does the prior ({self.prior.describe()}) hold this "
+                                 "emitter?", "bearing_prior") from None
             filt = setup.from_first_bearing(self.prior, first, self.nuisance)
             mean, cov = filt.state, filt.covariance
-            rest = np.flatnonzero(np.arange(len(meas)) != first.row)
+            rest = np.flatnonzero((np.arange(len(meas)) != first.row)
+                                  & (meas.time >= first.time))  # a filter runs forward
             after = filt.run(meas.take(rest))
             check = _confirmation(after, MIN_WINDOW)
             if not self.confirm or check.p_value >= self.confirm_p_value:
                 break
             rejected.append(Rejection(1, first.time, check))
             meas = meas.take(rest)
+        unused = int(np.count_nonzero((given.time < first.time) & ~given.kind_mask("bearing")))
         start = BearingStart(first.time, mean, cov, dict(self.nuisance), setup.state_names,
-                             self.prior, first, check, tuple(rejected))
+                             self.prior, first, check, tuple(rejected), unused)
         return Initiation(start, _prepend(after, first.time, mean, cov, setup.state_names))
 
 
