@@ -45,7 +45,7 @@ class Range(MeasurementModel):
 
 
 def range_row(rel: tuple[float, ...]) -> tuple[float, ...]:
-    """Give :meth:`Range.row_gradient` (a function: numba compiles it for the layout bound)."""
+    """Give :meth:`Range.row_gradient` (a function, for numba)."""
     px, py, pz = rel[0], rel[1], rel[2]
     r = math.sqrt(px * px + py * py + pz * pz)
     return r, px / r, py / r, pz / r, 0.0, 0.0, 0.0
