@@ -16,8 +16,9 @@ import numpy as np
 from ..bounds.pcrb_recursion import PosteriorInformation, predict_information
 from ..core.arrays import Array
 from ..core.linalg import symmetrise
+from ..observation.varpro_compiled import GEOMETRIC_CODES
 from .belief import Belief
-from .compiled import GEOMETRIC_CODES, geometric_sums, planar_information, supports_planar
+from .compiled import geometric_sums, planar_information, supports_planar
 from .measurement_plan import SensorPlan
 
 GammaForm = Literal["mean", "cloud"]

@@ -11,10 +11,7 @@ import numba
 import numpy as np
 
 from ..core.arrays import Array
-from ..measurements.bearing import bearing_row
-from ..measurements.elevation import elevation_row
-from ..measurements.range import range_row
-from ..measurements.range_rate import range_rate_row
+from ..observation.varpro_compiled import geometric_row
 from ..sensors.tracks import E1_COEFF, E2_COEFF, SERIES_BELOW, SERIES_TERMS
 from .measurement_plan import SensorPlan
 
@@ -592,23 +589,6 @@ def decide_planar(position: Array, heading: float, speed: float, climb: float,
     return _score(cov, weighting, cost, bound)
 
 
-_bearing_row, _elevation_row, _range_row, _range_rate_row = (
-    numba.njit(cache=True)(f) for f in (bearing_row, elevation_row, range_row, range_rate_row))
-#: The kinds :func:`geometric_sums` differentiates, by the kinds' own rows.
-GEOMETRIC_CODES = {"bearing": 0, "elevation": 1, "range": 2, "range_rate": 3}
-
-
-@numba.njit(cache=True)
-def _geometric_row(code: int, rel: tuple[float, ...]) -> tuple[float, ...]:
-    if code == 0:
-        return _bearing_row(rel)
-    if code == 1:
-        return _elevation_row(rel)
-    if code == 2:
-        return _range_row(rel)
-    return _range_rate_row(rel)
-
-
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def geometric_sums(codes: Array, whiten: Array, states: Array, weights: Array,
                    sensors: Array, out: Array) -> None:  # pragma: no cover - compiled
@@ -624,7 +604,7 @@ def geometric_sums(codes: Array, whiten: Array, states: Array, weights: Array,
             rel = (x[0] - s[0], x[1] - s[1], z - s[2], x[dim] - s[3], x[dim + 1] - s[4],
                    vz - s[5])
             for k in range(m):
-                row = _geometric_row(codes[k], rel)
+                row = geometric_row(codes[k], rel)
                 for a in range(dim):
                     h[k, a], h[k, dim + a] = row[1 + a], row[4 + a]
             for k in range(m):
