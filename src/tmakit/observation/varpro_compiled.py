@@ -105,22 +105,14 @@ def _gradient(code: int, param: float, lo: int, hi: int, rel: Array, w: Array, n
             g[0, j] = x * s
             g[1, j] = y * s
             g[2, j] = z * s
-    else:  # a frequency: d rdot / d rel = ((v - rdot u) / r, u), times -nu / c
+    else:  # a frequency: the range rate's derivatives times -nu / c
         scale = -nu / param
         for j in range(lo, hi):
-            x, y, z = rel[0, j], rel[1, j], rel[2, j]
-            vx, vy, vz = rel[3, j], rel[4, j], rel[5, j]
-            inv_r = 1.0 / math.sqrt(x * x + y * y + z * z)
-            ux, uy, uz = x * inv_r, y * inv_r, z * inv_r
-            rdot = ux * vx + uy * vy + uz * vz
+            row = _range_rate_row((rel[0, j], rel[1, j], rel[2, j], rel[3, j], rel[4, j],
+                                   rel[5, j]))
             s = scale * w[j]
-            t = inv_r * s
-            g[0, j] = (vx - rdot * ux) * t
-            g[1, j] = (vy - rdot * uy) * t
-            g[2, j] = (vz - rdot * uz) * t
-            g[3, j] = ux * s
-            g[4, j] = uy * s
-            g[5, j] = uz * s
+            for c in range(6):
+                g[c, j] = row[1 + c] * s
 
 
 @_jit
