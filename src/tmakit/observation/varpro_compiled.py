@@ -55,34 +55,21 @@ def geometric_row(code: int, rel: tuple[float, ...]) -> tuple[float, ...]:
 def _values(code: int, param: float, lo: int, hi: int, rel: Array, h: Array, a: Array
             ) -> None:  # pragma: no cover - compiled
     """Write ``h0`` and the design ``a`` of rows ``lo:hi`` of one kind."""
-    if code == BEARING:  # atan2(dx, dy), clockwise from north
-        for j in range(lo, hi):
-            h[j] = math.atan2(rel[0, j], rel[1, j])
-            a[j] = 0.0
-    elif code == ELEVATION:
-        for j in range(lo, hi):
-            h[j] = math.atan2(rel[2, j], math.hypot(rel[0, j], rel[1, j]))
-            a[j] = 0.0
-    elif code == POWER:  # h0 = -10 n log10 R; a = 1 (the constant's column)
+    if code == POWER:  # h0 = -10 n log10 R; a = 1 (the constant's column)
         k = -0.5 * _TEN_OVER_LN10 * param
         for j in range(lo, hi):
             x, y, z = rel[0, j], rel[1, j], rel[2, j]
             h[j] = math.log(x * x + y * y + z * z) * k
             a[j] = 1.0
-    elif code == RANGE:
-        for j in range(lo, hi):
-            x, y, z = rel[0, j], rel[1, j], rel[2, j]
-            h[j] = math.sqrt(x * x + y * y + z * z)
-            a[j] = 0.0
-    else:  # range rate p.v / |p|; frequency: h0 = 0, a = -rdot / c (times the carrier)
+    else:  # the kinds' own rows; a frequency: h0 = 0, a = -rdot / c (times the carrier)
         frequency = code == FREQUENCY
         scale = -1.0 / param if frequency else 1.0
         for j in range(lo, hi):
-            x, y, z = rel[0, j], rel[1, j], rel[2, j]
-            rdot = (x * rel[3, j] + y * rel[4, j] + z * rel[5, j]) / math.sqrt(
-                x * x + y * y + z * z)
-            h[j] = 0.0 if frequency else rdot
-            a[j] = rdot * scale if frequency else 0.0
+            value = geometric_row(RANGE_RATE if frequency else code,
+                                  (rel[0, j], rel[1, j], rel[2, j], rel[3, j], rel[4, j],
+                                   rel[5, j]))[0]
+            h[j] = 0.0 if frequency else value
+            a[j] = value * scale if frequency else 0.0
 
 
 @_jit
