@@ -53,6 +53,26 @@ p = Planner(**base, plan=SensorPlan(["bearing", "range"], (0.0175, 30.0)), gamma
 t = time.process_time()
 for _ in range(20): p.recommend(START, bel)
 """,
+    "planner 3-D, climbing, over 1,000 particles x40 (geometric cloud)": """
+import numpy as np
+from tmakit.bounds.pcrb_recursion import PosteriorInformation
+from tmakit.motion.dynamics import NearlyConstantVelocity
+from tmakit.planning import Belief, Planner, SensorPlan
+from tmakit.sensors import Actions, PlatformState, platform_configuration
+cfg = platform_configuration("hurtado_nehorai_2008"); rng = np.random.default_rng(3)
+post = PosteriorInformation.from_prior(np.diag([500.0**2] * 3 + [100.0] * 3),
+                                       NearlyConstantVelocity(dim=3, q=0.1), time=0.0)
+cloud = ([-2e3, 15e3, 900.0, 25.0, 0.0, 0.0]
+         + rng.standard_normal((1000, 6)) * [500, 500, 100, 10, 10, 1])
+p = Planner(cfg.kinematics, Actions.grid(np.radians([-10.0, 0.0, 10.0]), [0.9, 1.0, 1.1],
+                                         climb_rates=[-5.0, 0.0, 5.0]), cfg.interval,
+            SensorPlan(["bearing", "range", "range_rate", "elevation"], (0.0175, 30.0, 0.5, 0.02),
+                       dim=3), gamma="cloud")
+START, bel = PlatformState((0.0, 0.0, 100.0), 0.0, 50.0), Belief(post, cloud)
+p.recommend(START, bel)
+t = time.process_time()
+for _ in range(40): p.recommend(START, bel)
+""",
     "ml no-guess, gu2007 x20": """
 scn = tk.load_scenario("gu2007"); data = [scn.simulate(rng=s) for s in range(20)]
 t = time.process_time()

@@ -9,7 +9,6 @@ horizontal covariance by a tabulated integral, not the ``0.59 (s1 + s2)`` rule o
 from __future__ import annotations
 
 import functools
-import math
 
 import numba
 import numpy as np
@@ -18,6 +17,8 @@ from ..core.arrays import Array, BoolArray, IntArray
 from ..core.units import SPEED_OF_LIGHT
 from ..data import MeasurementSet
 from ..measurements import options_with_metadata
+from ..measurements.range import range_row
+from ..measurements.range_rate import range_rate_row
 
 __all__ = ["LayoutRows", "cep", "layout_information"]
 
@@ -106,20 +107,16 @@ def _cep_table(probability: float) -> tuple[Array, Array]:
 
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+_range_row, _range_rate_row = _jit(range_row), _jit(range_rate_row)
 
 
 @_jit
 def _gradient(e: Array, st: Array, fdoa: bool, out: Array) -> None:
     """Write the range (fdoa: range-rate) gradient by the emitter position into ``out``."""
-    rx, ry, rz = e[0] - st[0], e[1] - st[1], e[2] - st[2]
-    r = math.sqrt(rx * rx + ry * ry + rz * rz)
-    ux, uy, uz = rx / r, ry / r, rz / r
-    if fdoa:  # a stationary emitter: relative velocity = - sensor velocity
-        vx, vy, vz = -st[3], -st[4], -st[5]
-        rdot = ux * vx + uy * vy + uz * vz
-        out[0], out[1], out[2] = (vx - rdot * ux) / r, (vy - rdot * uy) / r, (vz - rdot * uz) / r
-    else:
-        out[0], out[1], out[2] = ux, uy, uz
+    # the kinds' own rows; a stationary emitter: relative velocity = - sensor velocity
+    rel = (e[0] - st[0], e[1] - st[1], e[2] - st[2], -st[3], -st[4], -st[5])
+    row = _range_rate_row(rel) if fdoa else _range_row(rel)
+    out[0], out[1], out[2] = row[1], row[2], row[3]
 
 
 @_jit

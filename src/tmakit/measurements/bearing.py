@@ -155,6 +155,11 @@ class Bearing(MeasurementModel):
     def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
                      ) -> tuple[float, ...]:
         """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` for one row in plain floats."""
-        dx, dy = rel[0], rel[1]
-        inv = 1.0 / (dx * dx + dy * dy)
-        return math.atan2(dx, dy), dy * inv, -dx * inv, 0.0, 0.0, 0.0, 0.0
+        return bearing_row(rel)
+
+
+def bearing_row(rel: tuple[float, ...]) -> tuple[float, ...]:
+    """Give :meth:`Bearing.row_gradient` (a function, for numba)."""
+    dx, dy = rel[0], rel[1]
+    inv = 1.0 / (dx * dx + dy * dy)
+    return math.atan2(dx, dy), dy * inv, -dx * inv, 0.0, 0.0, 0.0, 0.0

@@ -53,8 +53,13 @@ class Elevation(MeasurementModel):
     def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
                      ) -> tuple[float, ...]:
         """Give :meth:`predict` and :meth:`jacobian`'s ``rel`` for one row in plain floats."""
-        dx, dy, dz = rel[0], rel[1], rel[2]
-        rho = math.hypot(dx, dy)
-        inv_r2 = 1.0 / (rho * rho + dz * dz)
-        c = -dz * inv_r2 / rho
-        return math.atan2(dz, rho), c * dx, c * dy, rho * inv_r2, 0.0, 0.0, 0.0
+        return elevation_row(rel)
+
+
+def elevation_row(rel: tuple[float, ...]) -> tuple[float, ...]:
+    """Give :meth:`Elevation.row_gradient` (a function, for numba)."""
+    dx, dy, dz = rel[0], rel[1], rel[2]
+    rho = math.hypot(dx, dy)
+    inv_r2 = 1.0 / (rho * rho + dz * dz)
+    c = -dz * inv_r2 / rho
+    return math.atan2(dz, rho), c * dx, c * dy, rho * inv_r2, 0.0, 0.0, 0.0

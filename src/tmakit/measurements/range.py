@@ -41,6 +41,11 @@ class Range(MeasurementModel):
     def row_gradient(self, rel: tuple[float, ...], t: float, nuisance: tuple[float, ...]
                      ) -> tuple[float, ...]:
         """Give the range and its derivatives for one row in plain floats (m, 1)."""
-        px, py, pz = rel[0], rel[1], rel[2]
-        r = math.sqrt(px * px + py * py + pz * pz)
-        return r, px / r, py / r, pz / r, 0.0, 0.0, 0.0
+        return range_row(rel)
+
+
+def range_row(rel: tuple[float, ...]) -> tuple[float, ...]:
+    """Give :meth:`Range.row_gradient` (a function, for numba)."""
+    px, py, pz = rel[0], rel[1], rel[2]
+    r = math.sqrt(px * px + py * py + pz * pz)
+    return r, px / r, py / r, pz / r, 0.0, 0.0, 0.0

@@ -15,12 +15,12 @@ import numba
 import numpy as np
 
 from ..core.arrays import Array, BoolArray, IntArray
-from ..measurements.bearing import Bearing
-from ..measurements.elevation import Elevation
+from ..measurements.bearing import Bearing, bearing_row
+from ..measurements.elevation import Elevation, elevation_row
 from ..measurements.frequency import Frequency
 from ..measurements.power import Power
-from ..measurements.range import Range
-from ..measurements.range_rate import RangeRate
+from ..measurements.range import Range, range_row
+from ..measurements.range_rate import RangeRate, range_rate_row
 
 __all__ = ["BatchPlan", "evaluate_batch", "plan_for"]
 
@@ -32,61 +32,58 @@ _CODES: dict[type, int] = {Bearing: BEARING, Elevation: ELEVATION, Range: RANGE,
                            RangeRate: RANGE_RATE, Frequency: FREQUENCY, Power: POWER}
 
 _TEN_OVER_LN10 = 10.0 / math.log(10.0)
+#: The kinds :func:`geometric_row` differentiates (the codes above), by the kinds' own rows.
+GEOMETRIC_CODES = {"bearing": BEARING, "elevation": ELEVATION, "range": RANGE,
+                   "range_rate": RANGE_RATE}
+_bearing_row, _elevation_row, _range_row, _range_rate_row = (
+    _jit(f) for f in (bearing_row, elevation_row, range_row, range_rate_row))
+
+
+@_jit
+def geometric_row(code: int, rel: tuple[float, ...]) -> tuple[float, ...]:
+    """Give the kind's ``row_gradient`` (value, then its derivatives by ``rel``)."""
+    if code == BEARING:
+        return _bearing_row(rel)
+    if code == ELEVATION:
+        return _elevation_row(rel)
+    if code == RANGE:
+        return _range_row(rel)
+    return _range_rate_row(rel)
 
 
 @_jit
 def _values(code: int, param: float, lo: int, hi: int, rel: Array, h: Array, a: Array
             ) -> None:  # pragma: no cover - compiled
     """Write ``h0`` and the design ``a`` of rows ``lo:hi`` of one kind."""
-    if code == BEARING:  # atan2(dx, dy), clockwise from north
-        for j in range(lo, hi):
-            h[j] = math.atan2(rel[0, j], rel[1, j])
-            a[j] = 0.0
-    elif code == ELEVATION:
-        for j in range(lo, hi):
-            h[j] = math.atan2(rel[2, j], math.hypot(rel[0, j], rel[1, j]))
-            a[j] = 0.0
-    elif code == POWER:  # h0 = -10 n log10 R; a = 1 (the constant's column)
+    if code == POWER:  # h0 = -10 n log10 R; a = 1 (the constant's column)
         k = -0.5 * _TEN_OVER_LN10 * param
         for j in range(lo, hi):
             x, y, z = rel[0, j], rel[1, j], rel[2, j]
             h[j] = math.log(x * x + y * y + z * z) * k
             a[j] = 1.0
-    elif code == RANGE:
-        for j in range(lo, hi):
-            x, y, z = rel[0, j], rel[1, j], rel[2, j]
-            h[j] = math.sqrt(x * x + y * y + z * z)
-            a[j] = 0.0
-    else:  # range rate p.v / |p|; frequency: h0 = 0, a = -rdot / c (times the carrier)
+    else:  # the kinds' own rows; a frequency: h0 = 0, a = -rdot / c (times the carrier)
         frequency = code == FREQUENCY
         scale = -1.0 / param if frequency else 1.0
         for j in range(lo, hi):
-            x, y, z = rel[0, j], rel[1, j], rel[2, j]
-            rdot = (x * rel[3, j] + y * rel[4, j] + z * rel[5, j]) / math.sqrt(
-                x * x + y * y + z * z)
-            h[j] = 0.0 if frequency else rdot
-            a[j] = rdot * scale if frequency else 0.0
+            value = geometric_row(RANGE_RATE if frequency else code,
+                                  (rel[0, j], rel[1, j], rel[2, j], rel[3, j], rel[4, j],
+                                   rel[5, j]))[0]
+            h[j] = 0.0 if frequency else value
+            a[j] = value * scale if frequency else 0.0
 
 
 @_jit
 def _gradient(code: int, param: float, lo: int, hi: int, rel: Array, w: Array, nu: float,
               g: Array) -> None:  # pragma: no cover - compiled
     """Write the whitened derivatives of rows ``lo:hi``'s predictions by the relative state."""
-    if code == BEARING:
+    if code <= RANGE_RATE:
+        # the components that can be non-zero (writing the others cost 12 %)
+        live = 2 if code == BEARING else 6 if code == RANGE_RATE else 3
         for j in range(lo, hi):
-            x, y = rel[0, j], rel[1, j]
-            s = w[j] / (x * x + y * y)
-            g[0, j] = y * s
-            g[1, j] = -x * s
-    elif code == ELEVATION:
-        for j in range(lo, hi):
-            x, y, z = rel[0, j], rel[1, j], rel[2, j]
-            rho = math.hypot(x, y)
-            inv_r2 = 1.0 / (rho * rho + z * z)
-            c = -z * inv_r2 / rho * w[j]
-            g[0, j] = c * x
-            g[1, j] = c * y
-            g[2, j] = rho * inv_r2 * w[j]
+            row = geometric_row(code, (rel[0, j], rel[1, j], rel[2, j], rel[3, j], rel[4, j],
+                                       rel[5, j]))
+            for c in range(live):
+                g[c, j] = row[1 + c] * w[j]
     elif code == POWER:
         k = -_TEN_OVER_LN10 * param
         for j in range(lo, hi):
@@ -95,29 +92,14 @@ def _gradient(code: int, param: float, lo: int, hi: int, rel: Array, w: Array, n
             g[0, j] = x * s
             g[1, j] = y * s
             g[2, j] = z * s
-    elif code == RANGE:
+    else:  # a frequency: the range rate's derivatives times -nu / c
+        scale = -nu / param
         for j in range(lo, hi):
-            x, y, z = rel[0, j], rel[1, j], rel[2, j]
-            s = w[j] / math.sqrt(x * x + y * y + z * z)
-            g[0, j] = x * s
-            g[1, j] = y * s
-            g[2, j] = z * s
-    else:  # d rdot / d rel = ((v - rdot u) / r, u), times -nu / c for a frequency
-        scale = -nu / param if code == FREQUENCY else 1.0
-        for j in range(lo, hi):
-            x, y, z = rel[0, j], rel[1, j], rel[2, j]
-            vx, vy, vz = rel[3, j], rel[4, j], rel[5, j]
-            inv_r = 1.0 / math.sqrt(x * x + y * y + z * z)
-            ux, uy, uz = x * inv_r, y * inv_r, z * inv_r
-            rdot = ux * vx + uy * vy + uz * vz
+            row = _range_rate_row((rel[0, j], rel[1, j], rel[2, j], rel[3, j], rel[4, j],
+                                   rel[5, j]))
             s = scale * w[j]
-            t = inv_r * s
-            g[0, j] = (vx - rdot * ux) * t
-            g[1, j] = (vy - rdot * uy) * t
-            g[2, j] = (vz - rdot * uz) * t
-            g[3, j] = ux * s
-            g[4, j] = uy * s
-            g[5, j] = uz * s
+            for c in range(6):
+                g[c, j] = row[1 + c] * s
 
 
 @_jit

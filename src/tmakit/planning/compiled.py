@@ -11,6 +11,7 @@ import numba
 import numpy as np
 
 from ..core.arrays import Array
+from ..observation.varpro_compiled import geometric_row
 from ..sensors.tracks import E1_COEFF, E2_COEFF, SERIES_BELOW, SERIES_TERMS
 from .measurement_plan import SensorPlan
 
@@ -586,3 +587,38 @@ def decide_planar(position: Array, heading: float, speed: float, climb: float,
     if not spd_inverse_stack(info, cov):
         return -2
     return _score(cov, weighting, cost, bound)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def geometric_sums(codes: Array, whiten: Array, states: Array, weights: Array,
+                   sensors: Array, out: Array) -> None:  # pragma: no cover - compiled
+    """Add ``sum_i w_i (W H_i)' (W H_i)`` (C, n, n) to ``out``, ``H_i`` the kinds' rows."""
+    m, n = codes.shape[0], states.shape[1]
+    dim = n // 2
+    h, g = np.zeros((m, n)), np.zeros((m, n))
+    for c in range(sensors.shape[0]):
+        s = sensors[c]
+        for i in range(states.shape[0]):
+            x = states[i]
+            z, vz = (x[2], x[5]) if dim == 3 else (0.0, 0.0)
+            rel = (x[0] - s[0], x[1] - s[1], z - s[2], x[dim] - s[3], x[dim + 1] - s[4],
+                   vz - s[5])
+            for k in range(m):
+                row = geometric_row(codes[k], rel)
+                for a in range(dim):
+                    h[k, a], h[k, dim + a] = row[1 + a], row[4 + a]
+            for k in range(m):
+                for a in range(n):
+                    t = 0.0
+                    for j in range(m):
+                        t += whiten[k, j] * h[j, a]
+                    g[k, a] = t
+            for k in range(m):
+                for a in range(n):
+                    ga = weights[i] * g[k, a]
+                    for b in range(a, n):
+                        out[c, a, b] += ga * g[k, b]
+        for a in range(n):
+            for b in range(a + 1, n):
+                out[c, b, a] = out[c, a, b]
+
