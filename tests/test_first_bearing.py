@@ -27,8 +27,8 @@ from tmakit.filters import (
     smooth,
     transition_matrix,
 )
-from tmakit.motion.dynamics import NearlyConstantVelocity
 from tmakit.filters.base import TrackingFilter
+from tmakit.motion.dynamics import NearlyConstantVelocity
 from tmakit.tracking import BearingInitiator, TrackingError
 from tmakit.tracking.filter_setup import FilterSetup
 from tmakit.tracking.initiators import CONFIRM_P_VALUE, MIN_WINDOW, _confirmation
@@ -351,7 +351,7 @@ def test_the_window_test_rejects_and_accepts_as_the_whole_run_did(name):
     over the whole rest of the file, as before."""
     meas, _ = moderate_run(6)
     bad = MeasurementSet.from_si(np.array([-90.0, -60.0, -30.0]), ["own ship"] * 3,
-                                 ["bearing"] * 3, meas.value_si[:3] + [1.5, -1.0, 0.7],
+                                 ["bearing"] * 3, meas.value_si[:3] + np.array([1.5, -1.0, 0.7]),
                                  meas.sigma_si[:3], meas.sensor_state[:3])
     both = MeasurementSet.concatenate([bad, meas])
     tr = tk.track(both, name, q_density=Q_DENSITY, bearing_prior=MODERATE.prior())
