@@ -27,8 +27,11 @@ from tmakit.filters import (
     smooth,
     transition_matrix,
 )
+from tmakit.filters.base import TrackingFilter
 from tmakit.motion.dynamics import NearlyConstantVelocity
 from tmakit.tracking import BearingInitiator, TrackingError
+from tmakit.tracking.filter_setup import FilterSetup
+from tmakit.tracking.initiators import CONFIRM_P_VALUE, MIN_WINDOW, _confirmation
 
 runner = CliRunner()
 MODERATE = SCENARIOS["moderate"]
@@ -319,6 +322,55 @@ def test_a_clutter_first_bearing_is_rejected_by_the_innovations_after_it(name):
                        match=r"does the prior \(range 499\.\.10990 m, speed <= 5\.14 m/s\) hold"):
         tk.track(meas.take(np.arange(3)), name, initiator=BearingInitiator(
             MODERATE.prior(), confirm_p_value=1.01))  # even the last bearing's start
+
+
+def test_each_rejected_start_is_tested_over_its_window_only(monkeypatch):
+    """Every start rejected: each candidate's filter visits only the rows of the test's
+    MIN_WINDOW updates, not the whole rest of the file (the work was quadratic in the
+    bearings: hours on a log of thousands of clutter bearings)."""
+    meas, _ = moderate_run(6)
+    visited = []
+    run = TrackingFilter.run
+
+    def counted(self, rows, **kw):
+        visited.append(len(rows))
+        return run(self, rows, **kw)
+
+    monkeypatch.setattr(TrackingFilter, "run", counted)
+    with pytest.raises(TrackingError, match="every bearing's start was rejected"):
+        tk.track(meas, "gsf", q_density=Q_DENSITY, initiator=BearingInitiator(
+            MODERATE.prior(), confirm_p_value=1.01))
+    n = len(meas)
+    assert visited == [min(MIN_WINDOW, n - 1 - k) for k in range(n)]
+    assert sum(visited) <= MIN_WINDOW * n < sum(range(n))
+
+
+@pytest.mark.parametrize("name", ["gsf", "ekf", "ukf"])
+def test_the_window_test_rejects_and_accepts_as_the_whole_run_did(name):
+    """The verdicts, the tests' figures and the track are those of running each candidate
+    over the whole rest of the file, as before."""
+    meas, _ = moderate_run(6)
+    bad = MeasurementSet.from_si(np.array([-90.0, -60.0, -30.0]), ["own ship"] * 3,
+                                 ["bearing"] * 3, meas.value_si[:3] + np.array([1.5, -1.0, 0.7]),
+                                 meas.sigma_si[:3], meas.sensor_state[:3])
+    both = MeasurementSet.concatenate([bad, meas])
+    tr = tk.track(both, name, q_density=Q_DENSITY, bearing_prior=MODERATE.prior())
+    setup = FilterSetup.create(name, 2, q_density=Q_DENSITY)
+    rest, checks = both, []
+    while True:  # each candidate over the whole rest, as the start was tested before
+        first = first_bearing(rest)
+        filt = setup.from_first_bearing(MODERATE.prior(), first, {})
+        rest = rest.take(np.flatnonzero(np.arange(len(rest)) != first.row))
+        after = filt.run(rest)
+        checks.append({"time": first.time, **_confirmation(after, MIN_WINDOW).as_dict()})
+        if checks[-1]["p_value"] >= CONFIRM_P_VALUE:
+            break
+    start = tr.extra.start
+    assert len(checks) > 1 and tr.times[0] == checks[-1]["time"]
+    assert [{k: r[k] for k in checks[0]} for r in start["rejected"]] == checks[:-1]
+    assert start["confirmation"] == {k: v for k, v in checks[-1].items() if k != "time"}
+    assert np.array_equal(tr.states[1:], after.states)
+    assert np.array_equal(tr.nis[1:], after.nis, equal_nan=True)
 
 
 def test_rows_of_other_kinds_before_the_first_bearing_are_left_out_and_said(tmp_path):

@@ -18,6 +18,7 @@ a short bearings-only window's linearised covariance is overconfident in range).
 
 from __future__ import annotations
 
+import copy
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
@@ -32,7 +33,7 @@ from ..core import chi2
 from ..core.arrays import Array
 from ..core.units import REACH_M, SPEED_OF_LIGHT
 from ..data import MeasurementSet
-from ..filters import BearingPrior, FirstBearing, Track, first_bearing
+from ..filters import BearingPrior, FirstBearing, Track, TrackingFilter, first_bearing
 from ..measurements import model_for
 from ..motion import ConstantVelocity
 from ..observation import NoiseModel, ObservationModel
@@ -1290,14 +1291,17 @@ class BearingInitiator(Initiator):
                                  "emitter?", "bearing_prior") from None
             filt = setup.from_first_bearing(self.prior, first, self.nuisance)
             mean, cov = filt.state, filt.covariance
-            rest = np.flatnonzero((np.arange(len(meas)) != first.row)
-                                  & (meas.time >= first.time))  # a filter runs forward
-            after = filt.run(meas.take(rest))
+            rest = meas.take(np.flatnonzero((np.arange(len(meas)) != first.row)
+                                            & (meas.time >= first.time)))  # runs forward
+            if self.confirm:  # the verdict from the test's window only: linear in the bearings
+                check = _confirmation(_window_run(filt, rest, MIN_WINDOW), MIN_WINDOW)
+                if check.p_value < self.confirm_p_value:
+                    rejected.append(Rejection(1, first.time, check))
+                    meas = rest
+                    continue
+            after = filt.run(rest)
             check = _confirmation(after, MIN_WINDOW)
-            if not self.confirm or check.p_value >= self.confirm_p_value:
-                break
-            rejected.append(Rejection(1, first.time, check))
-            meas = meas.take(rest)
+            break
         unused = int(np.count_nonzero((given.time < first.time) & ~given.kind_mask("bearing")))
         start = BearingStart(first.time, mean, cov, dict(self.nuisance), setup.state_names,
                              self.prior, first, check, tuple(rejected), unused)
@@ -1446,6 +1450,13 @@ def _held_nuisance(result: EstimateResult, rows: MeasurementSet,
     return {n: float(np.sum((j_nu[:, j] * result.nuisance[n][1] / rows.sigma_si) ** 2))
             for j, n in enumerate(obs.nuisance_names)
             if n in result.nuisance and np.isfinite(result.nuisance[n][1])}
+
+
+def _window_run(filt: TrackingFilter, rows: MeasurementSet, window: int) -> Track:
+    """Run a copy of ``filt`` (its random generator too) over the first ``window`` updates."""
+    order, bounds = time_blocks(rows.time)
+    return copy.deepcopy(filt).run(rows.take(np.sort(order[:bounds[min(window,
+                                                                          len(bounds) - 1)]])))
 
 
 def _confirmation(after: Track, window: int) -> Confirmation:
