@@ -32,7 +32,7 @@ on one own ship (a hull array and a towed array on its cable, two receivers on o
 ONE_SHIP_SPEED = 2.0
 """The median difference of their velocities (m/s) below which two such sensors move as one."""
 
-_BLOCK = 1 << 16  # rows at a time where a whole log is read
+_BLOCK = 1 << 14  # rows at a time where a whole log is read (temporaries kept in cache)
 
 
 @dataclass(frozen=True)
