@@ -16,6 +16,7 @@ is the client the shell's ``tma`` calls (standard library only: it starts in a f
 
 from __future__ import annotations
 
+import gc
 import json
 import os
 import signal
@@ -64,6 +65,7 @@ def serve(path: str) -> None:
         __import__(name)  # what most commands import later: loaded once here
     if os.environ.get(NUMBA_LOCK_VARIABLE):  # the forks compile one at a time with pytest's
         compile_one_at_a_time(Path(os.environ[NUMBA_LOCK_VARIABLE]))  # workers
+    gc.freeze()  # what the forks share, out of their collections (tma's exit collects)
     sys.path[0] = str(Path(TMA).parent)  # as the console script has it
     supervisors: set[int] = set()
 

@@ -120,7 +120,7 @@ def radian_warnings(meas: MeasurementSet) -> list[SanityWarning]:
     return found
 
 
-_BLOCK = 1 << 16  # rows read at a time by the checks of a whole set (no temporary of every row)
+_BLOCK = 1 << 14  # rows read at a time by the checks of a whole set (temporaries kept in cache)
 
 
 def _kind_extent(meas: MeasurementSet, kind: str) -> tuple[int, float]:

@@ -55,6 +55,12 @@ def sensor_position(meas: MeasurementSet, sensor: str, t: float) -> NDArray[np.f
 def _bracketing_rows(time: NDArray[np.float64], sel: NDArray[np.bool_] | None, t: float
                      ) -> NDArray[np.intp]:
     """Give, in file order, the selected rows at ``t`` and at the nearest times either side."""
+    if sel is None and np.isfinite(t) and bool(np.all(time[1:] >= time[:-1])):  # in order: searched
+        lo, hi = np.searchsorted(time, t, "left"), np.searchsorted(time, t, "right")
+        near = (time[lo - 1] if lo > 0 else -np.inf, time[hi] if hi < time.size else np.inf)
+        return np.arange(np.searchsorted(time, near[0], "left"),
+                         np.searchsorted(time, near[1], "right"))
+
     def mask(side: NDArray[np.bool_]) -> NDArray[np.bool_]:
         return side if sel is None else side & sel
 

@@ -32,6 +32,8 @@ on one own ship (a hull array and a towed array on its cable, two receivers on o
 ONE_SHIP_SPEED = 2.0
 """The median difference of their velocities (m/s) below which two such sensors move as one."""
 
+_BLOCK = 1 << 14  # rows at a time where a whole log is read (temporaries kept in cache)
+
 
 @dataclass(frozen=True)
 class Leg:
@@ -249,11 +251,7 @@ def detect_legs(time: NDArray[np.float64], state: NDArray[np.float64], *,
     if order is not None:
         t = t[order]
     # one fix per window_s / 60 (1 s by default) is all a heading rate over window_s needs
-    bins = t - t[0]
-    bins *= 60.0 / window_s
-    np.floor(bins, out=bins)
-    kept = np.concatenate([[0], np.flatnonzero(bins[1:] > bins[:-1]) + 1])
-    del bins
+    kept = _first_of_each_bin(t, 60.0 / window_s)
     last = int(np.searchsorted(t, t[-1], "left"))  # and the last fix
     kept = np.append(kept[kept < last], last)
     t, first = t[kept], kept if order is None else order[kept]
@@ -271,6 +269,20 @@ def detect_legs(time: NDArray[np.float64], state: NDArray[np.float64], *,
     bounds = _straight_runs(turning, jump)
     legs, turns = _merge_small_turns(t, heading, speed, bounds, np.deg2rad(min_turn_deg))
     return LegsAndTurns(legs, turns, turn_rate_deg_s, window_s, min_turn_deg)
+
+
+def _first_of_each_bin(t: NDArray[np.float64], scale: float) -> NDArray[np.intp]:
+    """Give the first of the sorted times ``t`` in each bin ``floor((t - t[0]) * scale)``."""
+    firsts, last = [np.zeros(1, dtype=np.intp)], None
+    for lo in range(0, t.size, _BLOCK):  # by blocks: no temporary of every row
+        bins = t[lo:lo + _BLOCK] - t[0]
+        bins *= scale
+        np.floor(bins, out=bins)
+        if last is not None and bins[0] > last:
+            firsts.append(np.array([lo]))
+        firsts.append(np.flatnonzero(bins[1:] > bins[:-1]) + (lo + 1))
+        last = bins[-1]
+    return np.concatenate(firsts)
 
 
 def _straight_runs(turning: NDArray[np.bool_], jump: NDArray[np.bool_]
