@@ -229,13 +229,13 @@ def broken_rows(columns: Mapping[str, NDArray[Any]], block: int = 1 << 15
     applied = [r for r in cell_rules() if all(c in columns for c in r.reads)]
     found: list[list[NDArray[np.intp]]] = [[] for _ in applied]
     n = next(iter(columns.values())).shape[0]
-    for lo in range(0, n, block):
-        cells = {c: v[lo:lo + block] for c, v in columns.items()}
-        for rule, rows in zip(applied, found, strict=True):
-            with np.errstate(invalid="ignore"):
-                bad = np.flatnonzero(rule.broken(*(cells[c] for c in rule.reads)))
-            if bad.shape[0]:
-                rows.append(bad + lo)
+    with np.errstate(invalid="ignore"):
+        for lo in range(0, n, block):
+            cells = {c: v[lo:lo + block] for c, v in columns.items()}
+            for rule, rows in zip(applied, found, strict=True):
+                broken = rule.broken(*(cells[c] for c in rule.reads))
+                if broken.any():
+                    rows.append(np.flatnonzero(broken) + lo)
     return [(rule, np.concatenate(rows) if rows else np.zeros(0, dtype=np.intp))
             for rule, rows in zip(applied, found, strict=True)]
 
