@@ -165,6 +165,8 @@ def test_tma_plan_interrupted_keeps_its_finished_chunks(tmp_path, monkeypatch):
                                  "--duration", "20", "--particles", "100", "--no-progress"])
     assert result.exit_code == 130, result.output
     assert not out.exists()
+    assert f"1 finished chunk(s) of the per-step table kept in {tmp_path / 'plan.parquet.parts'}" \
+        in result.output
     parts = sorted((tmp_path / "plan.parquet.parts").glob("*.parquet"))
     assert [p.name for p in parts] == ["planned-000000.parquet"]
     table = pd.read_parquet(parts[0])

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -215,8 +217,9 @@ def reproduce(
     if checkpoint is not None:
         extra["on_chunk"] = checkpoint
     try:
-        rep = module.run(**({} if runs is None else {"runs": runs}), seed=seed,
-                         progress=not no_progress, **extra)
+        with _telling_kept_chunks(checkpoint):
+            rep = module.run(**({} if runs is None else {"runs": runs}), seed=seed,
+                             progress=not no_progress, **extra)
     except (ValueError, ImportError) as e:  # ("steps must be ...": named by its flag)
         text = str(e)
         raise fail(f"--{text}" if text.split(" ")[0] in extra or text.startswith("runs ")
@@ -255,6 +258,18 @@ def _extra_options(name: str, module: Any, **given: Any) -> dict[str, Any]:
         if key in extra and extra[key] not in names:
             raise fail(f"--{key} must be one of {', '.join(names)}, got {extra[key]!r}")
     return extra
+
+
+@contextmanager
+def _telling_kept_chunks(checkpoint: Any) -> Iterator[None]:
+    """On a run that ends early (interrupted, terminated, failed), say where its chunks are."""
+    try:
+        yield
+    except BaseException:
+        if checkpoint is not None and checkpoint.saved:
+            err.print(f"{len(checkpoint.saved)} finished chunk(s) of the per-step table kept in "
+                      f"{checkpoint.parts}{os.sep}", markup=False, soft_wrap=True)
+        raise
 
 
 def _checkpoint(output: Path, force: bool) -> Any:
@@ -373,9 +388,10 @@ def plan(
         from ..montecarlo.planned import plan as run_plan
 
         checkpoint = None if output is None else _checkpoint(output, force)
-        result = run_plan(setup, runs=runs, rng=seed, duration=duration,
-                          particles=particles, tracker=tracker, planner=planner,
-                          progress=not no_progress, on_chunk=checkpoint)
+        with _telling_kept_chunks(checkpoint):
+            result = run_plan(setup, runs=runs, rng=seed, duration=duration,
+                              particles=particles, tracker=tracker, planner=planner,
+                              progress=not no_progress, on_chunk=checkpoint)
     except ScenarioFileError as e:
         raise fail(str(e)) from None
     except ValueError as e:
