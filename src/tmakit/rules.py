@@ -107,12 +107,16 @@ def _where(rows: NDArray[np.intp], column: str, expected: str, found: NDArray[An
 
 
 class CellRule(NamedTuple):
-    """A cell's rule: column (None: the row), what it must be, the test and what it reads."""
+    """A cell's rule: column (None: the row), what it must be, what it reads, the test, kind.
+
+    ``kind``: the code of the kind whose rows alone the rule applies to (None: every row).
+    """
 
     column: str | None
     expected: str
     reads: tuple[str, ...]
     broken: Callable[..., NDArray[np.bool_]]
+    kind: int | None = None
 
 
 def _non_finite(v: NDArray[np.float64]) -> NDArray[np.bool_]:
@@ -121,30 +125,25 @@ def _non_finite(v: NDArray[np.float64]) -> NDArray[np.bool_]:
 
 def _beyond(limit: float) -> Callable[[NDArray[np.float64]], NDArray[np.bool_]]:
     """Test a finite cell beyond ``±limit`` (a non-finite one breaks FINITE)."""
-    return lambda v: (np.abs(v) > limit) & (np.abs(v) != np.inf)
+    def test(v: NDArray[np.float64]) -> NDArray[np.bool_]:
+        size = np.abs(v)
+        out = size > limit
+        if out.any():
+            out &= size != np.inf
+        return out
+    return test
 
 
 def _off_the_earth(v: NDArray[np.float64], column: str) -> NDArray[np.bool_]:
     return np.isfinite(v) & ~geo_within(v, column)
 
 
-def _of_kind(code: int, broken: Callable[..., NDArray[np.bool_]]
-             ) -> Callable[..., NDArray[np.bool_]]:
-    """Make a test that only rows of kind ``code`` can break (quick where there are none)."""
-    def test(kind: NDArray[np.integer], *columns: NDArray[Any]) -> NDArray[np.bool_]:
-        mine = kind == code
-        if mine.any():
-            mine[mine] = broken(*(c[mine] for c in columns))
-        return mine
-    return test
-
-
 @lru_cache(maxsize=1)
 def _value_rules() -> tuple[tuple[int, str, Callable[..., NDArray[np.bool_]]], ...]:
-    """Each kind's value range: its code, what a value must be, the test ``(kind, value)``."""
-    return tuple((code, str(cls.describe_values()), _of_kind(
-        code, lambda v, cls=cls: np.isfinite(v) & ~cls.check_values(v)))
-        for code, cls in enumerate(KINDS.values()) if cls.value_range is not None)
+    """Each kind's value range: its code, what a value must be, the test of its values."""
+    return tuple((code, str(cls.describe_values()),
+                  lambda v, cls=cls: np.isfinite(v) & ~cls.check_values(v))
+                 for code, cls in enumerate(KINDS.values()) if cls.value_range is not None)
 
 
 def sigma_ceiling(kind: str) -> float | None:
@@ -175,17 +174,23 @@ def sigma_ceiling_text(kind: str) -> str:
 
 def _sigma_ceiling_rules() -> list[CellRule]:
     """Each bounded kind's rule: a sigma no larger than :func:`sigma_ceiling`."""
-    return [CellRule("sigma", sigma_ceiling_text(kind), ("kind_code", "sigma"),
-                     _of_kind(code, lambda s, limit=limit: s > limit))
+    return [CellRule("sigma", sigma_ceiling_text(kind), ("sigma",),
+                     lambda s, limit=limit: s > limit, code)
             for code, kind in enumerate(KINDS) if (limit := sigma_ceiling(kind)) is not None]
 
 
 def _sigma_unresolved(kind: NDArray[np.integer], value: NDArray[np.float64],
                       sigma: NDArray[np.float64]) -> NDArray[np.bool_]:
-    moot = ~np.isfinite(value)  # no value, or one out of its range: its sigma is moot
-    for _, _, out_of_range in _value_rules():
-        moot |= out_of_range(kind, value)
-    return (sigma > 0) & ~moot & ~sigma_resolved(value, sigma)
+    broken = (sigma > 0) & ~sigma_resolved(value, sigma)
+    if broken.any():  # no value, or one out of its range: its sigma is moot
+        rows = np.flatnonzero(broken)
+        kind, value = kind[rows], value[rows]
+        moot = ~np.isfinite(value)
+        for code, _, out_of_range in _value_rules():
+            mine = kind == code
+            moot[mine] |= out_of_range(value[mine])
+        broken[rows] = ~moot
+    return broken
 
 
 @lru_cache(maxsize=1)
@@ -210,10 +215,10 @@ def cell_rules() -> tuple[CellRule, ...]:
     for code, cls in enumerate(KINDS.values()):
         if cls.sensor_at_origin:
             rules.append(CellRule(None, "the ENU origin (0, 0, 0) as the sensor position of an "
-                                  f"{cls.kind} row", ("kind_code", *STATE_COLUMNS[:3]),
-                                  _of_kind(code, lambda x, y, z: (np.abs(x) > 1e-3)
-                                           | (np.abs(y) > 1e-3) | (np.abs(z) > 1e-3))))
-        rules += [CellRule("value", what, ("kind_code", "value"), test)
+                                  f"{cls.kind} row", STATE_COLUMNS[:3],
+                                  lambda x, y, z: (np.abs(x) > 1e-3) | (np.abs(y) > 1e-3)
+                                  | (np.abs(z) > 1e-3), code))
+        rules += [CellRule("value", what, ("value",), test, code)
                   for c, what, test in _value_rules() if c == code]
     return (*rules, CellRule("sigma", SIGMA_RESOLVED, ("kind_code", "value", "sigma"),
                              _sigma_unresolved))
@@ -221,23 +226,62 @@ def cell_rules() -> tuple[CellRule, ...]:
 
 def broken_rows(columns: Mapping[str, NDArray[Any]], block: int = 1 << 15
                 ) -> list[tuple[CellRule, NDArray[np.intp]]]:
-    """Give each rule of :func:`cell_rules` that reads only ``columns`` and the rows breaking it.
+    """Give each rule of :func:`cell_rules` that some row of ``columns`` breaks, and those rows.
 
-    Every rule is tested on one block of rows before the next block (the block stays in the
-    cache; no mask of every row is held).
+    A rule applies where the columns it reads are given; a kind's rule where ``kind_code`` is
+    given too, to that kind's rows.  Every rule is tested on one block of rows before the next
+    block (the block stays in the cache; no mask of every row is held).
     """
-    applied = [r for r in cell_rules() if all(c in columns for c in r.reads)]
-    found: list[list[NDArray[np.intp]]] = [[] for _ in applied]
+    applied = _rules_reading(frozenset(columns))
+    found: dict[int, list[NDArray[np.intp]]] = {}
     n = next(iter(columns.values())).shape[0]
     with np.errstate(invalid="ignore"):
         for lo in range(0, n, block):
             cells = {c: v[lo:lo + block] for c, v in columns.items()}
-            for rule, rows in zip(applied, found, strict=True):
-                broken = rule.broken(*(cells[c] for c in rule.reads))
+            views: dict[int | None, tuple[Mapping[str, NDArray[Any]], NDArray[np.intp] | None]]
+            views = {code: (cells, None) if mine is None else (_Rows(cells, mine), mine)
+                     for code, mine in _rows_by_kind(cells.get("kind_code")).items()}
+            views[None] = (cells, None)
+            for i, rule in enumerate(applied):
+                if (view := views.get(rule.kind)) is None:
+                    continue  # no row of the rule's kind
+                of, mine = view
+                broken = rule.broken(*[of[c] for c in rule.reads])
                 if broken.any():
-                    rows.append(np.flatnonzero(broken) + lo)
-    return [(rule, np.concatenate(rows) if rows else np.zeros(0, dtype=np.intp))
-            for rule, rows in zip(applied, found, strict=True)]
+                    at = np.flatnonzero(broken)
+                    found.setdefault(i, []).append((at if mine is None else mine[at]) + lo)
+    return [(applied[i], np.concatenate(rows)) for i, rows in sorted(found.items())]
+
+
+class _Rows(dict[str, NDArray[Any]]):
+    """The columns of some rows of a block, each indexed on first use."""
+
+    def __init__(self, cells: Mapping[str, NDArray[Any]], rows: NDArray[np.intp]) -> None:
+        super().__init__()
+        self.cells, self.rows = cells, rows
+
+    def __missing__(self, column: str) -> NDArray[Any]:
+        self[column] = self.cells[column][self.rows]
+        return self[column]
+
+
+@lru_cache(maxsize=64)
+def _rules_reading(names: frozenset[str]) -> tuple[CellRule, ...]:
+    """Give the rules that apply to the columns ``names``."""
+    return tuple(r for r in cell_rules() if all(c in names for c in r.reads)
+                 and (r.kind is None or "kind_code" in names))
+
+
+def _rows_by_kind(kind: NDArray[np.integer] | None) -> dict[int, NDArray[np.intp] | None]:
+    """Give the rows of each kind code present (None: every row is of that kind)."""
+    if kind is None or kind.shape[0] == 0:
+        return {}
+    low, high = int(kind.min()), int(kind.max())
+    if low == high:
+        return {low: None}
+    counts = np.bincount(kind - low)
+    return {code + low: np.flatnonzero(kind == code + low)
+            for code in np.flatnonzero(counts).tolist()}
 
 
 def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
@@ -250,6 +294,8 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
                **{name: sensor_state[:, j] for j, name in enumerate(STATE_COLUMNS)}}
     found: list[str] = []
     for rule, bad in broken_rows(columns):
+        if bad.shape[0] == 0:
+            continue
         if rule.column is None:
             found += [f"row {int(r) + 1}: expected {rule.expected}" for r in bad[:_SHOWN]]
         else:
@@ -275,9 +321,17 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
 STATE_COLUMNS = ("sensor_x", "sensor_y", "sensor_z", "sensor_vx", "sensor_vy", "sensor_vz")
 
 
-def state_within_reach(values: NDArray[np.float64], column: int) -> NDArray[np.bool_]:
-    """Tell where a sensor state column lies within reach: positions, velocities."""
-    return np.abs(values) <= (REACH_M if column < 3 else SPEED_OF_LIGHT)
+def state_within_reach(values: NDArray[np.float64], column: int | None = None
+                       ) -> NDArray[np.bool_]:
+    """Tell where a state column lies within reach: positions, velocities.
+
+    ``column`` None: ``values`` holds a state's first columns, ``(n, d)``.
+    """
+    limits = _REACH[:values.shape[-1]] if column is None else _REACH[column]
+    return np.abs(values) <= limits
+
+
+_REACH = np.array([REACH_M] * 3 + [SPEED_OF_LIGHT] * 3)  # each state column's reach
 
 
 def geo_within(values: NDArray[np.float64], column: str) -> NDArray[np.bool_]:
@@ -309,21 +363,23 @@ def duplicate_rows(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
         return []
     if not in_order:  # a sensor's rows out of time order (refused anyway): sort them all
         rows = np.arange(n)
-    else:
-        rows = np.unique(np.concatenate((same, same + 1)))
-        rows = rows if order is None else order[rows]
-    ref = np.where(np.isnan(time_ref[rows]), -np.inf, time_ref[rows])
-    r = rows[np.lexsort((rows, ref, kind_code[rows], time[rows], sensor_code[rows]))]
-    key = np.where(np.isnan(time_ref[r]), -np.inf, time_ref[r])
-    twin = ((sensor_code[r[1:]] == sensor_code[r[:-1]]) & (time[r[1:]] == time[r[:-1]])
-            & (kind_code[r[1:]] == kind_code[r[:-1]]) & (key[1:] == key[:-1]))
-    pairs, first = [], -1
-    for i in range(1, r.shape[0]):
-        if not twin[i - 1]:
-            continue
-        first = int(r[i - 1]) if i == 1 or not twin[i - 2] else first
-        pairs.append((int(r[i]), first))
-    return sorted(pairs)
+    else:  # the rows beside one of their sensor at their time
+        near = np.zeros(n, dtype=bool)
+        near[same], near[same + 1] = True, True
+        rows = np.flatnonzero(near) if order is None else order[near]
+    ref = time_ref[rows]
+    keys = (sensor_code[rows], time[rows], kind_code[rows], np.where(np.isnan(ref), -np.inf, ref))
+    by = np.lexsort((rows, *keys[::-1]))
+    r, twin = rows[by], np.ones(rows.shape[0] - 1, dtype=bool)
+    for key in keys:
+        key = key[by]
+        twin &= key[1:] == key[:-1]
+    at = np.flatnonzero(twin) + 1  # the places in r that repeat the one before
+    if at.shape[0] == 0:
+        return []
+    place = np.arange(r.shape[0])
+    first = np.maximum.accumulate(np.where(np.concatenate(([True], ~twin)), place, 0))
+    return sorted(zip(r[at].tolist(), r[first[at]].tolist(), strict=True))
 
 
 def decreasing_times(time: NDArray[np.float64], sensor_code: NDArray[np.integer]
