@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from .core.arrays import finite_range
 from .core.units import REACH_M, SPEED_OF_LIGHT, TIME_LIMIT_S
 from .measurements import KINDS
+from .measurements.base import ValueRange
 
 __all__ = ["FINITE", "GEO_RANGES", "LATITUDE", "LONGITUDE", "OUTLIER_SPANS", "POSITION",
            "SIGMA_FLOOR", "SIGMA_POSITIVE", "SIGMA_RESOLVED", "TIME", "VELOCITY", "CellRule",
@@ -45,7 +46,7 @@ def far_times(time: NDArray[np.float64]) -> tuple[NDArray[np.bool_], str]:
         if n < 4 or float(t.max()) - float(t.min()) <= OUTLIER_SPANS * _MIN_SPAN_S:
             return np.zeros(time.shape, dtype=bool), ""
         i25, i75 = (n - 1) // 4, n - 1 - (n - 1) // 4
-        if bool(np.all(t[1:] >= t[:-1])):  # in order already (one sensor): no copy
+        if bool((t[1:] >= t[:-1]).all()):  # in order already (one sensor): no copy
             low, high = float(t[i25]), float(t[i75])
         else:
             part = np.partition(t, (i25, i75))
@@ -106,10 +107,15 @@ def _where(rows: NDArray[np.intp], column: str, expected: str, found: NDArray[An
             for k, r in enumerate(rows[:_SHOWN])]
 
 
-class CellRule(NamedTuple):
-    """A cell's rule: column (None: the row), what it must be, what it reads, the test, kind.
+_REACH = np.array([REACH_M] * 3 + [SPEED_OF_LIGHT] * 3)  # each state column's reach
+_LARGEST = float(np.finfo(float).max)  # a cell no larger is finite
 
-    ``kind``: the code of the kind whose rows alone the rule applies to (None: every row).
+
+class CellRule(NamedTuple):
+    """A cell's rule: column (None: the row), what it must be, what it reads, the test, ...
+
+    ``kind``: the code of the kind whose rows alone the rule applies to (None: every row);
+    ``clear``: no cell of a magnitude at most this breaks the rule (None: no such bound).
     """
 
     column: str | None
@@ -117,6 +123,7 @@ class CellRule(NamedTuple):
     reads: tuple[str, ...]
     broken: Callable[..., NDArray[np.bool_]]
     kind: int | None = None
+    clear: float | None = None
 
 
 def _non_finite(v: NDArray[np.float64]) -> NDArray[np.bool_]:
@@ -139,11 +146,21 @@ def _off_the_earth(v: NDArray[np.float64], column: str) -> NDArray[np.bool_]:
 
 
 @lru_cache(maxsize=1)
-def _value_rules() -> tuple[tuple[int, str, Callable[..., NDArray[np.bool_]]], ...]:
-    """Each kind's value range: its code, what a value must be, the test of its values."""
-    return tuple((code, str(cls.describe_values()),
-                  lambda v, cls=cls: np.isfinite(v) & ~cls.check_values(v))
+def _value_rules() -> tuple[CellRule, ...]:
+    """Each kind's rule of its values' range."""
+    return tuple(CellRule("value", str(cls.describe_values()), ("value",),
+                          lambda v, cls=cls: np.isfinite(v) & ~cls.check_values(v), code,
+                          _within_both(cls.value_range))
                  for code, cls in enumerate(KINDS.values()) if cls.value_range is not None)
+
+
+def _within_both(values: ValueRange) -> float | None:
+    """Give the largest ``c`` whose ``[-c, c]`` lies in ``values`` (None: no such ``c`` > 0)."""
+    low = -math.inf if values.low is None else values.low
+    high = math.inf if values.high is None else values.high
+    c = min(-low, high)
+    inside = (-c > low or values.low_inclusive) and (c < high or values.high_inclusive)
+    return c if inside and 0 < c < math.inf else None
 
 
 def sigma_ceiling(kind: str) -> float | None:
@@ -175,7 +192,7 @@ def sigma_ceiling_text(kind: str) -> str:
 def _sigma_ceiling_rules() -> list[CellRule]:
     """Each bounded kind's rule: a sigma no larger than :func:`sigma_ceiling`."""
     return [CellRule("sigma", sigma_ceiling_text(kind), ("sigma",),
-                     lambda s, limit=limit: s > limit, code)
+                     lambda s, limit=limit: s > limit, code, limit)
             for code, kind in enumerate(KINDS) if (limit := sigma_ceiling(kind)) is not None]
 
 
@@ -186,9 +203,9 @@ def _sigma_unresolved(kind: NDArray[np.integer], value: NDArray[np.float64],
         rows = np.flatnonzero(broken)
         kind, value = kind[rows], value[rows]
         moot = ~np.isfinite(value)
-        for code, _, out_of_range in _value_rules():
-            mine = kind == code
-            moot[mine] |= out_of_range(value[mine])
+        for rule in _value_rules():
+            mine = kind == rule.kind
+            moot[mine] |= rule.broken(value[mine])
         broken[rows] = ~moot
     return broken
 
@@ -201,15 +218,20 @@ def cell_rules() -> tuple[CellRule, ...]:
     :func:`column_problems` (a set's rows) report them; a rule applies where the columns it
     reads are given (``kind_code``: -1 for no kind), and a cell breaks one rule at most.
     """
-    ranged = [("time", TIME, _beyond(TIME_LIMIT_S))]
-    ranged += [(c, POSITION if j < 3 else VELOCITY, _beyond(REACH_M if j < 3 else SPEED_OF_LIGHT))
+    ranged = [("time", TIME, TIME_LIMIT_S)]
+    ranged += [(c, POSITION if j < 3 else VELOCITY, float(_REACH[j]))
                for j, c in [*enumerate(STATE_COLUMNS), (2, "sensor_alt")]]
-    ranged += [(c, what, partial(_off_the_earth, column=c))
-               for c, what in (("sensor_lat", LATITUDE), ("sensor_lon", LONGITUDE))]
-    rules = [CellRule(c, FINITE, (c,), _non_finite) for c in ("time", "value", "sigma")]
-    for c, what, test in ranged:
-        rules += [CellRule(c, FINITE, (c,), _non_finite)] * (c != "time")
-        rules.append(CellRule(c, what, (c,), test))
+    finite = [CellRule(c, FINITE, (c,), _non_finite, clear=_LARGEST)
+              for c in ("time", "value", "sigma", *(c for c, _, _ in ranged[1:]), *GEO_RANGES)]
+    rules = finite[:3]
+    for c, what, limit in ranged:
+        rules += [r for r in finite[3:] if r.column == c]
+        rules.append(CellRule(c, what, (c,), _beyond(limit), clear=limit))
+    for c, what in (("sensor_lat", LATITUDE), ("sensor_lon", LONGITUDE)):
+        low, high = GEO_RANGES[c]
+        rules += [r for r in finite[3:] if r.column == c]
+        rules.append(CellRule(c, what, (c,), partial(_off_the_earth, column=c),
+                              clear=min(-low, high)))
     rules.append(CellRule("sigma", SIGMA_POSITIVE, ("sigma",), lambda s: np.isfinite(s) & ~(s > 0)))
     rules += _sigma_ceiling_rules()
     for code, cls in enumerate(KINDS.values()):
@@ -218,8 +240,7 @@ def cell_rules() -> tuple[CellRule, ...]:
                                   f"{cls.kind} row", STATE_COLUMNS[:3],
                                   lambda x, y, z: (np.abs(x) > 1e-3) | (np.abs(y) > 1e-3)
                                   | (np.abs(z) > 1e-3), code))
-        rules += [CellRule("value", what, ("value",), test, code)
-                  for c, what, test in _value_rules() if c == code]
+        rules += [r for r in _value_rules() if r.kind == code]
     return (*rules, CellRule("sigma", SIGMA_RESOLVED, ("kind_code", "value", "sigma"),
                              _sigma_unresolved))
 
@@ -230,7 +251,8 @@ def broken_rows(columns: Mapping[str, NDArray[Any]], block: int = 1 << 15
 
     A rule applies where the columns it reads are given; a kind's rule where ``kind_code`` is
     given too, to that kind's rows.  Every rule is tested on one block of rows before the next
-    block (the block stays in the cache; no mask of every row is held).
+    block (the block stays in the cache; no mask of every row is held), unless the largest
+    magnitude of its column in the block is within the rule's ``clear``.
     """
     applied = _rules_reading(frozenset(columns))
     found: dict[int, list[NDArray[np.intp]]] = {}
@@ -238,31 +260,38 @@ def broken_rows(columns: Mapping[str, NDArray[Any]], block: int = 1 << 15
     with np.errstate(invalid="ignore"):
         for lo in range(0, n, block):
             cells = {c: v[lo:lo + block] for c, v in columns.items()}
-            views: dict[int | None, tuple[Mapping[str, NDArray[Any]], NDArray[np.intp] | None]]
-            views = {code: (cells, None) if mine is None else (_Rows(cells, mine), mine)
-                     for code, mine in _rows_by_kind(cells.get("kind_code")).items()}
-            views[None] = (cells, None)
+            views: dict[int | None, _Rows] = {None: _Rows(cells, None)}
+            views.update((code, _Rows(cells, mine))
+                         for code, mine in _rows_by_kind(cells.get("kind_code")).items())
             for i, rule in enumerate(applied):
-                if (view := views.get(rule.kind)) is None:
+                if (of := views.get(rule.kind)) is None:
                     continue  # no row of the rule's kind
-                of, mine = view
+                if rule.clear is not None and of.size(rule.reads[0]) <= rule.clear:
+                    continue
                 broken = rule.broken(*[of[c] for c in rule.reads])
                 if broken.any():
                     at = np.flatnonzero(broken)
-                    found.setdefault(i, []).append((at if mine is None else mine[at]) + lo)
+                    found.setdefault(i, []).append((at if of.rows is None else of.rows[at]) + lo)
     return [(applied[i], np.concatenate(rows)) for i, rows in sorted(found.items())]
 
 
 class _Rows(dict[str, NDArray[Any]]):
-    """The columns of some rows of a block, each indexed on first use."""
+    """The columns of some rows of a block (None: all), each indexed on first use."""
 
-    def __init__(self, cells: Mapping[str, NDArray[Any]], rows: NDArray[np.intp]) -> None:
-        super().__init__()
-        self.cells, self.rows = cells, rows
+    def __init__(self, cells: Mapping[str, NDArray[Any]], rows: NDArray[np.intp] | None
+                 ) -> None:
+        super().__init__(cells if rows is None else {})
+        self.cells, self.rows, self.sizes = cells, rows, dict[str, float]()
 
     def __missing__(self, column: str) -> NDArray[Any]:
-        self[column] = self.cells[column][self.rows]
+        self[column] = self.cells[column] if self.rows is None else self.cells[column][self.rows]
         return self[column]
+
+    def size(self, column: str) -> float:
+        """Give the largest magnitude in ``column`` (NaN if one is NaN)."""
+        if column not in self.sizes:
+            self.sizes[column] = float(np.abs(self[column]).max())
+        return self.sizes[column]
 
 
 @lru_cache(maxsize=64)
@@ -280,8 +309,7 @@ def _rows_by_kind(kind: NDArray[np.integer] | None) -> dict[int, NDArray[np.intp
     if low == high:
         return {low: None}
     counts = np.bincount(kind - low)
-    return {code + low: np.flatnonzero(kind == code + low)
-            for code in np.flatnonzero(counts).tolist()}
+    return {code + low: (kind == code + low).nonzero()[0] for code in counts.nonzero()[0].tolist()}
 
 
 def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
@@ -331,7 +359,6 @@ def state_within_reach(values: NDArray[np.float64], column: int | None = None
     return np.abs(values) <= limits
 
 
-_REACH = np.array([REACH_M] * 3 + [SPEED_OF_LIGHT] * 3)  # each state column's reach
 
 
 def geo_within(values: NDArray[np.float64], column: str) -> NDArray[np.bool_]:
@@ -357,8 +384,15 @@ def duplicate_rows(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
     order = None if one else np.argsort(sensor_code, kind="stable")
     t = time if order is None else time[order]
     s = sensor_code if order is None else sensor_code[order]
-    same = np.flatnonzero((t[1:] == t[:-1]) & (s[1:] == s[:-1]))
-    in_order = bool(np.all((t[1:] >= t[:-1]) | (s[1:] != s[:-1])))
+    shared = (t[1:] == t[:-1]) & (s[1:] == s[:-1])  # a row at the sensor and time of the last
+    in_order = bool(((t[1:] >= t[:-1]) | (s[1:] != s[:-1])).all())
+    if in_order and shared.any():  # two rows alone at a sensor and time, of two kinds: no twins
+        k = kind_code if order is None else kind_code[order]
+        alone = shared.copy()
+        alone[1:] &= ~shared[:-1]
+        alone[:-1] &= ~shared[1:]
+        shared &= ~(alone & (k[1:] != k[:-1]))
+    same = shared.nonzero()[0]
     if same.shape[0] == 0 and in_order:
         return []
     if not in_order:  # a sensor's rows out of time order (refused anyway): sort them all
@@ -374,7 +408,7 @@ def duplicate_rows(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
     for key in keys:
         key = key[by]
         twin &= key[1:] == key[:-1]
-    at = np.flatnonzero(twin) + 1  # the places in r that repeat the one before
+    at = twin.nonzero()[0] + 1  # the places in r that repeat the one before
     if at.shape[0] == 0:
         return []
     place = np.arange(r.shape[0])
