@@ -260,19 +260,21 @@ def broken_rows(columns: Mapping[str, NDArray[Any]], block: int = 1 << 15
     with np.errstate(invalid="ignore"):
         for lo in range(0, n, block):
             cells = {c: v[lo:lo + block] for c, v in columns.items()}
-            views: dict[int | None, _Rows] = {None: _Rows(cells, None)}
-            views.update((code, _Rows(cells, mine))
+            every = _Rows(cells, None)
+            views: dict[int | None, _Rows] = {None: every}
+            views.update((code, every if mine is None else _Rows(cells, mine))
                          for code, mine in _rows_by_kind(cells.get("kind_code")).items())
-            for i, rule in enumerate(applied):
-                if (of := views.get(rule.kind)) is None:
-                    continue  # no row of the rule's kind
-                if rule.clear is not None and of.size(rule.reads[0]) <= rule.clear:
-                    continue
-                broken = rule.broken(*[of[c] for c in rule.reads])
-                if broken.any():
-                    at = np.flatnonzero(broken)
-                    found.setdefault(i, []).append((at if of.rows is None else of.rows[at]) + lo)
-    return [(applied[i], np.concatenate(rows)) for i, rows in sorted(found.items())]
+            for kind, of in views.items():
+                for i, rule in applied.get(kind, ()):
+                    if rule.clear is not None and of.size(rule.reads[0]) <= rule.clear:
+                        continue
+                    broken = rule.broken(*[of[c] for c in rule.reads])
+                    if broken.any():
+                        at = broken.nonzero()[0]
+                        found.setdefault(i, []).append((at if of.rows is None else of.rows[at])
+                                                       + lo)
+    rules = cell_rules()
+    return [(rules[i], np.concatenate(rows)) for i, rows in sorted(found.items())]
 
 
 class _Rows(dict[str, NDArray[Any]]):
@@ -295,10 +297,13 @@ class _Rows(dict[str, NDArray[Any]]):
 
 
 @lru_cache(maxsize=64)
-def _rules_reading(names: frozenset[str]) -> tuple[CellRule, ...]:
-    """Give the rules that apply to the columns ``names``."""
-    return tuple(r for r in cell_rules() if all(c in names for c in r.reads)
-                 and (r.kind is None or "kind_code" in names))
+def _rules_reading(names: frozenset[str]) -> dict[int | None, tuple[tuple[int, CellRule], ...]]:
+    """Give the rules that apply to the columns ``names`` by kind, each with its place."""
+    by_kind: dict[int | None, list[tuple[int, CellRule]]] = {}
+    for i, r in enumerate(cell_rules()):
+        if all(c in names for c in r.reads) and (r.kind is None or "kind_code" in names):
+            by_kind.setdefault(r.kind, []).append((i, r))
+    return {kind: tuple(rules) for kind, rules in by_kind.items()}
 
 
 def _rows_by_kind(kind: NDArray[np.integer] | None) -> dict[int, NDArray[np.intp] | None]:

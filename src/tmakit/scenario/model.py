@@ -351,8 +351,9 @@ class Scenario:
         """
         template, values = self.simulate_values(rngs, noise)
         out = []
-        for rng, value_si in zip(rngs, values, strict=True):
-            meas = template.take(np.arange(len(template)))
+        for i, (rng, value_si) in enumerate(zip(rngs, values, strict=True)):
+            # (the template, made for this call, is the last set)
+            meas = template if i == len(rngs) - 1 else template.take(np.arange(len(template)))
             meas.value_si = value_si
             if isinstance(rng, int):
                 meas.metadata["seed"] = str(rng)
