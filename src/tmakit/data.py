@@ -144,6 +144,27 @@ class MeasurementSet:
             rules.check_set(out)
         return out
 
+    @classmethod
+    def _of_codes(cls, time: NDArray[np.float64], sensor_code: NDArray[np.int32],
+                  sensor_names: tuple[str, ...], kind_code: NDArray[np.int8],
+                  value_si: NDArray[np.float64], sigma_si: NDArray[np.float64],
+                  sensor_state: NDArray[np.float64], time_ref: NDArray[np.float64] | None,
+                  ref_sensor_state: NDArray[np.float64] | None, metadata: Mapping[str, str]
+                  ) -> MeasurementSet:
+        """Build a set of the library's own columns (codes, SI; owned arrays): nothing checked."""
+        out = object.__new__(cls)
+        n = time.shape[0]
+        nan = np.broadcast_to(np.nan, (n, 6))  # absent references: no memory per row
+        out.time, out.sensor_code, out.sensor_names = time, sensor_code, sensor_names
+        out.kind_code, out.sensor_state = kind_code, sensor_state.reshape(n, 6)
+        out.time_ref = nan[:, 0] if time_ref is None else time_ref
+        out.ref_sensor_state = nan if ref_sensor_state is None else ref_sensor_state.reshape(n, 6)
+        out.metadata = {str(k): str(v) for k, v in metadata.items()}
+        out._value = out._sigma = None
+        out._value_si, out._sigma_si = _frozen(value_si), _frozen(sigma_si)
+        out._kind = out._sensor = out._kinds = out._sensors = None
+        return out
+
     def _set_file_values(self, value: NDArray[np.float64] | None,
                          sigma: NDArray[np.float64] | None) -> None:
         """Store new file-unit values and/or sigmas (owned arrays) and their SI twins."""
@@ -497,16 +518,22 @@ class MeasurementSet:
         if not parts:
             raise ValueError("nothing to concatenate")
         refs = not all(broadcast(p.time_ref) and broadcast(p.ref_sensor_state) for p in parts)
-        cat = MeasurementSet.from_si(  # checked parts; in order once sorted
-            np.concatenate([p.time for p in parts]),
-            np.concatenate([p.sensor for p in parts]),
-            np.concatenate([p.kind for p in parts]),
+        names: dict[str, int] = {}  # the sensors in order of first appearance in the rows
+        codes = []
+        for p in parts:
+            rank = np.zeros(len(p.sensor_names), dtype=np.int32)
+            for name in p.sensors:
+                rank[p.sensor_names.index(name)] = names.setdefault(name, len(names))
+            codes.append(rank[p.sensor_code])
+        cat = MeasurementSet._of_codes(  # checked parts; in order once sorted
+            np.concatenate([p.time for p in parts]), np.concatenate(codes), tuple(names),
+            np.concatenate([p.kind_code for p in parts]),
             np.concatenate([p.value_si for p in parts]),
             np.concatenate([p.sigma_si for p in parts]),
             np.concatenate([p.sensor_state for p in parts]),
             np.concatenate([p.time_ref for p in parts]) if refs else None,
             np.concatenate([p.ref_sensor_state for p in parts]) if refs else None,
-            dict(metadata if metadata is not None else parts[0].metadata), check=False)
+            metadata if metadata is not None else parts[0].metadata)
         if all(p._value is not None for p in parts):  # keep a file's numbers exactly
             cat._value = _frozen(np.concatenate([p.value for p in parts]))
         if all(p._sigma is not None for p in parts):

@@ -19,6 +19,7 @@ from ..core.keywords import RngLike, as_generator
 from ..core.units import snr_to_sigma_db
 from ..data import MeasurementSet
 from ..measurements import KINDS, interval_count, options_with_metadata
+from ..measurements.codes import KIND_CODES
 from ..measurements.tdoa import noise_form
 from ..motion import MotionModel
 from ..observation import ObservationModel
@@ -307,9 +308,11 @@ class Scenario:
         key = (plan.sensor, times.tobytes())
         if key not in states:
             states[key] = track.states(times)
-        return MeasurementSet.from_si(times, np.full(n, plan.sensor), np.full(n, plan.kind),
-                                      np.zeros(n), sigma_si, states[key], time_ref,
-                                      ref_state, check=False)  # values: simulate_many
+        return MeasurementSet._of_codes(  # values: simulate_values
+            np.array(times, dtype=float), np.zeros(n, dtype=np.int32), (str(plan.sensor),),
+            np.full(n, KIND_CODES[plan.kind], dtype=np.int8), np.zeros(n),
+            np.array(sigma_si, dtype=float), states[key],
+            None if time_ref is None else np.array(time_ref, dtype=float), ref_state, {})
 
     def simulate(self, rng: RngLike = None, noise: bool = True) -> MeasurementSet:
         """Observe the scenario: rows by sensor in time order, with metadata (an int seed too).
