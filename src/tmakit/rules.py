@@ -327,8 +327,6 @@ def column_problems(time: NDArray[np.float64], sensor_code: NDArray[np.integer],
                **{name: sensor_state[:, j] for j, name in enumerate(STATE_COLUMNS)}}
     found: list[str] = []
     for rule, bad in broken_rows(columns):
-        if bad.shape[0] == 0:
-            continue
         if rule.column is None:
             found += [f"row {int(r) + 1}: expected {rule.expected}" for r in bad[:_SHOWN]]
         else:
@@ -362,8 +360,6 @@ def state_within_reach(values: NDArray[np.float64], column: int | None = None
     """
     limits = _REACH[:values.shape[-1]] if column is None else _REACH[column]
     return np.abs(values) <= limits
-
-
 
 
 def geo_within(values: NDArray[np.float64], column: str) -> NDArray[np.bool_]:
