@@ -270,7 +270,11 @@ class _Columns:
     def block_is_valid(self, k: int) -> bool:
         """Check the range-difference cells of the block of ``k`` rows just stored."""
         lo, hi = self.n, self.n + k
-        between = _BETWEEN_SENSORS[self.kind[lo:hi]]
+        kind = self.kind[lo:hi]
+        is_rd = _USES_REFERENCE[kind]
+        if self.time_ref is None and self.ref is None and not is_rd.any():
+            return True  # each rule of these cells reads a range difference or a given cell
+        between = _BETWEEN_SENSORS[kind]
         if not self.ref_columns and between.any():  # tdoa, fdoa: no reference state
             return False
         nan = np.broadcast_to(np.float64(np.nan), (k,))  # (no cell given yet)
@@ -278,10 +282,9 @@ class _Columns:
                     nan if self.time_ref is None else self.time_ref[lo:hi])
         ref = {REF_STATE_COLUMNS[i]: nan if self.ref is None else self.ref[lo:hi, i]
                for i in self.ref_columns}
-        kind = self.kind[lo:hi]
         return not any(np.any(bad) for _, bad, _ in reference_problems(
-            self.num["time"][lo:hi], time_ref, lambda row: KIND_NAMES[kind[row]],
-            _USES_REFERENCE[kind], between, ref))
+            self.num["time"][lo:hi], time_ref, lambda row: KIND_NAMES[kind[row]], is_rd,
+            between, ref))
 
     def put_number(self, name: str, values: NDArray[np.float64]) -> None:
         """Store a block of a numeric column (geodetic cells checked now: the set holds ENU)."""
