@@ -11,6 +11,7 @@ import csv
 import ctypes
 import functools
 import io
+import re
 from array import array
 from collections.abc import Callable
 from pathlib import Path
@@ -70,13 +71,16 @@ _STATE_COLUMN = {"sensor_x": 0, "sensor_y": 1, "sensor_z": 2, "sensor_vx": 3, "s
 #: Columns of range differences (empty on other rows).
 _REFERENCE = ("time_ref", *REF_STATE_COLUMNS)
 _USES_REFERENCE, _BETWEEN_SENSORS = kind_flags("uses_reference"), kind_flags("between_sensors")
+#: A line as ``io.StringIO(text, newline="")`` splits them: ended by "\r\n", "\r" or "\n".
+_LINE = re.compile(r"[^\r\n]*(?:\r\n|\r|\n)|[^\r\n]+")
 
 
 def split_metadata(text: str) -> tuple[dict[str, str], int, int]:
     """Split off the leading ``# key: value`` comment lines (and blank lines) of a CSV text."""
     metadata: dict[str, str] = {}
     consumed = pre_lines = 0
-    for line in io.StringIO(text, newline=""):
+    for match in _LINE.finditer(text):  # (an io.StringIO would copy the whole text first)
+        line = match.group()
         stripped = line.strip()
         if stripped and not stripped.startswith("#"):
             break
@@ -301,18 +305,28 @@ class _Columns:
         table = kind_code_table(names)
         if np.any(table < 0):
             raise _Fallback
-        self.kind[self.n:self.n + indices.shape[0]] = table[indices]
+        _store_codes(self.kind[self.n:self.n + indices.shape[0]], table, indices)
 
     def put_sensor(self, indices: NDArray[np.integer], names: list[str]) -> None:
         """Store a block of sensor codes, new ids numbered in order of first appearance."""
-        present, first = np.unique(indices, return_index=True)
-        table = np.zeros(len(names), dtype=np.int32)
-        for i in present[np.argsort(first, kind="stable")].tolist():
-            name = names[i]
-            if not name.strip():
-                raise _Fallback
-            table[i] = self.sensor_names.setdefault(name, len(self.sensor_names))
-        self.sensor[self.n:self.n + indices.shape[0]] = table[indices]
+        table = np.array([self.sensor_names.get(name, -1) for name in names], dtype=np.int32)
+        if np.any(table < 0):  # a sensor not seen before (in another block)
+            present, first = np.unique(indices, return_index=True)
+            for i in present[np.argsort(first, kind="stable")].tolist():
+                name = names[i]
+                if not name.strip():
+                    raise _Fallback
+                table[i] = self.sensor_names.setdefault(name, len(self.sensor_names))
+        _store_codes(self.sensor[self.n:self.n + indices.shape[0]], table, indices)
+
+
+def _store_codes(out: NDArray[np.integer], table: NDArray[np.integer],
+                 indices: NDArray[np.integer]) -> None:
+    """Store ``table[indices]`` in ``out`` (a dictionary of one word: its code in every row)."""
+    if table.shape[0] == 1:
+        out[:] = table[0]
+    else:
+        np.take(table, indices, out=out)
 
 
 def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
