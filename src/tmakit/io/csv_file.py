@@ -356,7 +356,7 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
                 raise _Fallback
             cols.n += k
             del batch
-            if blocks % _GIVE_BACK_EVERY == 0:
+            if blocks % _GIVE_BACK_EVERY == _GIVE_BACK_EVERY - 1:  # (not after the first)
                 _give_back()
     _give_back()
     if cols is None or cols.n == 0:
