@@ -58,8 +58,6 @@ _PREAMBLE_SCAN = 1 << 20
 #: Bytes of CSV text parsed at a time (pyarrow reads about 32 blocks ahead: this bounds that
 #: queue's memory; ``tests/test_stream_readahead.py``).
 BLOCK_BYTES = 1 << 20
-#: Blocks between two returns of freed memory to the system (:func:`_give_back` walks the heap).
-_GIVE_BACK_EVERY = 4
 #: Bytes per row of a streamed set: time, value, sigma and their SI twins (8 each), the
 #: sensor state (48), the sensor code (4) and the kind code (1); without range differences
 #: ``time_ref`` and the reference state are all-NaN views that take no memory.
@@ -344,7 +342,7 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
         f.seek(start)
         reader = pcsv.open_csv(f, read_options=read, parse_options=parse,
                                convert_options=convert, memory_pool=pool)
-        for blocks, batch in enumerate(reader):
+        for batch in reader:
             k = batch.num_rows
             if cols is None:  # the rows per byte of the first block, 5 % spare
                 left = max(1, path.stat().st_size - start)
@@ -356,9 +354,7 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
                 raise _Fallback
             cols.n += k
             del batch
-            if blocks % _GIVE_BACK_EVERY == _GIVE_BACK_EVERY - 1:  # (not after the first)
-                _give_back()
-    _give_back()
+    _give_back()  # (the freed blocks are reused while reading: no trim between them)
     if cols is None or cols.n == 0:
         raise _Fallback
     cols.resize(cols.n)  # the spare rows dropped
