@@ -404,8 +404,11 @@ def stream_csv(path: Path, scan: int = 1 << 20,
                origin: tuple[float, float, float] | None = None) -> MeasurementSet | None:
     """Read a valid CSV measurement file in bounded memory."""
     with open(path, "rb") as f:
-        head = f.read(scan)
-    found = _preamble(head, complete=len(head) < scan)
+        head = f.read(min(scan, 1 << 16))  # a preamble is a few lines: 64 KiB first
+        found = _preamble(head, complete=len(head) < min(scan, 1 << 16))
+        if found is None and len(head) < scan:
+            head += f.read(scan - len(head))
+            found = _preamble(head, complete=len(head) < scan)
     if found is None:
         return None
     metadata, start, _ = found
