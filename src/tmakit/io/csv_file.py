@@ -308,7 +308,7 @@ class _Columns:
     def put_sensor(self, indices: NDArray[np.integer], names: list[str]) -> None:
         """Store a block of sensor codes, new ids numbered in order of first appearance."""
         table = np.array([self.sensor_names.get(name, -1) for name in names], dtype=np.int32)
-        if np.any(table < 0):  # a sensor not seen before (in another block)
+        if np.any(table < 0):  # a sensor no earlier block named
             present, first = np.unique(indices, return_index=True)
             for i in present[np.argsort(first, kind="stable")].tolist():
                 name = names[i]
