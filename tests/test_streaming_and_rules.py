@@ -68,6 +68,20 @@ def test_odd_valid_files_stream_to_the_full_checkers_set(tmp_path, text):
     assert streamed is not None and streamed.equals(full_read(path))
 
 
+# 59 KB, 71 KB (past the 64 KiB read first), 1.2 MB (past the 1 MiB searched) of metadata
+@pytest.mark.parametrize("lines", [1_000, 1_200, 20_000])
+def test_a_long_preamble_streams_until_the_scan_ends(tmp_path, lines):
+    preamble = ("# tmakit measurements v1", *(f"# k{i}: {'é' * 25}" for i in range(lines)))
+    path = write_rows(tmp_path / "long.csv", two_sensor_rows(20), preamble)
+    streamed = csv_file.stream_csv(path, scan=1 << 20)
+    if lines == 20_000:  # the header lies past the bytes searched: the checker reads it
+        assert streamed is None
+        return
+    full = full_read(path)
+    assert streamed is not None and streamed.equals(full)
+    assert streamed.metadata == full.metadata and len(full.metadata) == lines
+
+
 def test_a_streamed_set_holds_the_stated_bytes_per_row(tmp_path):
     path = write_rows(tmp_path / "obs.csv", two_sensor_rows(500))
     meas = csv_file.stream_csv(path)

@@ -11,6 +11,7 @@ import csv
 import ctypes
 import functools
 import io
+import re
 from array import array
 from collections.abc import Callable
 from pathlib import Path
@@ -57,8 +58,6 @@ _PREAMBLE_SCAN = 1 << 20
 #: Bytes of CSV text parsed at a time (pyarrow reads about 32 blocks ahead: this bounds that
 #: queue's memory; ``tests/test_stream_readahead.py``).
 BLOCK_BYTES = 1 << 20
-#: Blocks between two returns of freed memory to the system (:func:`_give_back` walks the heap).
-_GIVE_BACK_EVERY = 4
 #: Bytes per row of a streamed set: time, value, sigma and their SI twins (8 each), the
 #: sensor state (48), the sensor code (4) and the kind code (1); without range differences
 #: ``time_ref`` and the reference state are all-NaN views that take no memory.
@@ -70,13 +69,16 @@ _STATE_COLUMN = {"sensor_x": 0, "sensor_y": 1, "sensor_z": 2, "sensor_vx": 3, "s
 #: Columns of range differences (empty on other rows).
 _REFERENCE = ("time_ref", *REF_STATE_COLUMNS)
 _USES_REFERENCE, _BETWEEN_SENSORS = kind_flags("uses_reference"), kind_flags("between_sensors")
+#: A line as ``io.StringIO(text, newline="")`` splits them: ended by "\r\n", "\r" or "\n".
+_LINE = re.compile(r"[^\r\n]*(?:\r\n|\r|\n)|[^\r\n]+")
 
 
 def split_metadata(text: str) -> tuple[dict[str, str], int, int]:
     """Split off the leading ``# key: value`` comment lines (and blank lines) of a CSV text."""
     metadata: dict[str, str] = {}
     consumed = pre_lines = 0
-    for line in io.StringIO(text, newline=""):
+    for match in _LINE.finditer(text):  # (an io.StringIO would copy the whole text first)
+        line = match.group()
         stripped = line.strip()
         if stripped and not stripped.startswith("#"):
             break
@@ -270,7 +272,11 @@ class _Columns:
     def block_is_valid(self, k: int) -> bool:
         """Check the range-difference cells of the block of ``k`` rows just stored."""
         lo, hi = self.n, self.n + k
-        between = _BETWEEN_SENSORS[self.kind[lo:hi]]
+        kind = self.kind[lo:hi]
+        is_rd = _USES_REFERENCE[kind]
+        if self.time_ref is None and self.ref is None and not is_rd.any():
+            return True  # each rule of these cells reads a range difference or a given cell
+        between = _BETWEEN_SENSORS[kind]
         if not self.ref_columns and between.any():  # tdoa, fdoa: no reference state
             return False
         nan = np.broadcast_to(np.float64(np.nan), (k,))  # (no cell given yet)
@@ -278,10 +284,9 @@ class _Columns:
                     nan if self.time_ref is None else self.time_ref[lo:hi])
         ref = {REF_STATE_COLUMNS[i]: nan if self.ref is None else self.ref[lo:hi, i]
                for i in self.ref_columns}
-        kind = self.kind[lo:hi]
         return not any(np.any(bad) for _, bad, _ in reference_problems(
-            self.num["time"][lo:hi], time_ref, lambda row: KIND_NAMES[kind[row]],
-            _USES_REFERENCE[kind], between, ref))
+            self.num["time"][lo:hi], time_ref, lambda row: KIND_NAMES[kind[row]], is_rd,
+            between, ref))
 
     def put_number(self, name: str, values: NDArray[np.float64]) -> None:
         """Store a block of a numeric column (geodetic cells checked now: the set holds ENU)."""
@@ -298,18 +303,28 @@ class _Columns:
         table = kind_code_table(names)
         if np.any(table < 0):
             raise _Fallback
-        self.kind[self.n:self.n + indices.shape[0]] = table[indices]
+        _store_codes(self.kind[self.n:self.n + indices.shape[0]], table, indices)
 
     def put_sensor(self, indices: NDArray[np.integer], names: list[str]) -> None:
         """Store a block of sensor codes, new ids numbered in order of first appearance."""
-        present, first = np.unique(indices, return_index=True)
-        table = np.zeros(len(names), dtype=np.int32)
-        for i in present[np.argsort(first, kind="stable")].tolist():
-            name = names[i]
-            if not name.strip():
-                raise _Fallback
-            table[i] = self.sensor_names.setdefault(name, len(self.sensor_names))
-        self.sensor[self.n:self.n + indices.shape[0]] = table[indices]
+        table = np.array([self.sensor_names.get(name, -1) for name in names], dtype=np.int32)
+        if np.any(table < 0):  # a sensor no earlier block named
+            present, first = np.unique(indices, return_index=True)
+            for i in present[np.argsort(first, kind="stable")].tolist():
+                name = names[i]
+                if not name.strip():
+                    raise _Fallback
+                table[i] = self.sensor_names.setdefault(name, len(self.sensor_names))
+        _store_codes(self.sensor[self.n:self.n + indices.shape[0]], table, indices)
+
+
+def _store_codes(out: NDArray[np.integer], table: NDArray[np.integer],
+                 indices: NDArray[np.integer]) -> None:
+    """Store ``table[indices]`` in ``out`` (a dictionary of one word: its code in every row)."""
+    if table.shape[0] == 1:
+        out[:] = table[0]
+    else:
+        np.take(table, indices, out=out)
 
 
 def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
@@ -327,7 +342,7 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
         f.seek(start)
         reader = pcsv.open_csv(f, read_options=read, parse_options=parse,
                                convert_options=convert, memory_pool=pool)
-        for blocks, batch in enumerate(reader):
+        for batch in reader:
             k = batch.num_rows
             if cols is None:  # the rows per byte of the first block, 5 % spare
                 left = max(1, path.stat().st_size - start)
@@ -339,9 +354,7 @@ def _read_blocks(path: Path, start: int, names: list[str]) -> _Columns:
                 raise _Fallback
             cols.n += k
             del batch
-            if blocks % _GIVE_BACK_EVERY == 0:
-                _give_back()
-    _give_back()
+    _give_back()  # (the freed blocks are reused while reading: no trim between them)
     if cols is None or cols.n == 0:
         raise _Fallback
     cols.resize(cols.n)  # the spare rows dropped
@@ -391,8 +404,11 @@ def stream_csv(path: Path, scan: int = 1 << 20,
                origin: tuple[float, float, float] | None = None) -> MeasurementSet | None:
     """Read a valid CSV measurement file in bounded memory."""
     with open(path, "rb") as f:
-        head = f.read(scan)
-    found = _preamble(head, complete=len(head) < scan)
+        head = f.read(min(scan, 1 << 16))  # a preamble is a few lines: 64 KiB first
+        found = _preamble(head, complete=len(head) < min(scan, 1 << 16))
+        if found is None and len(head) < scan:
+            head += f.read(scan - len(head))
+            found = _preamble(head, complete=len(head) < scan)
     if found is None:
         return None
     metadata, start, _ = found
