@@ -292,6 +292,8 @@ class _Runs:
         # costs after the last iterations, by run (a ring over _STALL_WINDOW + 1 slots)
         self.history = np.tile(out.cost, (_STALL_WINDOW + 1, 1)) if stall else None
         self.model: GaussNewtonModel | None = None
+        # an evaluation no longer read, whose arrays the next trial takes (no new pages)
+        self.spare: Evaluation | None = None
         self.information: Array | None = None  # J'J of stopped runs at their final points
         self.last_model: GaussNewtonModel | None = None  # a single run's, when it stopped
         # a single run's previous point and its J'J (how fast J'J changes: information_steady)
@@ -333,6 +335,8 @@ class _Runs:
             return
         keep = ~mask
         self.ids = self.ids[keep]
+        if self.cur is not self.out:
+            self.spare = self.cur
         self.cur = self.cur.take(keep)
         self.u, self.nu_star = self.u[keep], self.nu_star[keep]
         self.lam, self.grow = self.lam[keep], self.grow[keep]
@@ -587,7 +591,9 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
             full = np.zeros_like(cur.theta)
             full[:, free] = step
             step = full
-        trial = problem.evaluate_part(cur.theta + step, runs.u, runs.nu_star, True, quiet=True)
+        trial = problem.evaluate_part(cur.theta + step, runs.u, runs.nu_star, True, quiet=True,
+                                      spare=runs.spare)
+        runs.spare = None  # (its arrays may be the trial's now)
         if lam.shape[0] == 1 and plain:  # one run: its tests in floats
             runs.iterations[int(runs.ids[0])] += 1
             _after_step_one(runs, trial, step, float(predicted[0]), rules)
@@ -602,12 +608,21 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
         if tiny.any():
             tiny &= (np.abs(step) <= rules.xtol * (np.abs(trial.theta) + 1.0)).all(axis=1)
         if better.all():
+            runs.spare = None if cur is runs.out else cur
             runs.cur, runs.model = trial, None
         elif better.any():
-            if runs.cur is runs.out:  # never write into the results of stopped runs
+            if runs.cur is not runs.out:
+                runs.cur.put(better, trial, better)
+                runs.spare = trial
+            elif trial.normal is None and cur.normal is None:  # (stopped runs' results kept)
+                trial.put(~better, cur, ~better)  # the same rows, in the trial's arrays
+                runs.cur = trial
+            else:
                 runs.cur = cur.take(np.ones(cur.cost.shape[0], dtype=np.bool_))
-            runs.cur.put(better, trial, better)
+                runs.cur.put(better, trial, better)
             runs.model = None
+        else:
+            runs.spare = trial
         give_up = runs.lam > 1e12
         if rules.max_reject is not None:
             runs.rejected = np.where(better, 0, runs.rejected + 1)

@@ -147,6 +147,21 @@ def _starts_per_block(rows: int) -> int:
     return max(FEWEST_PER_BLOCK, BLOCK_WORK // max(1, rows))
 
 
+def _buffers(spare: Evaluation | None, b: int, n: int, k: int, p: int | None
+             ) -> tuple[Array, Array, Array, Array | None]:
+    """Give ``nu``, ``r``, ``cost`` and ``J'`` ``(b, p, n)`` to fill: ``spare``'s, or new."""
+    jt = None if spare is None or spare.jacobian is None else spare.jacobian.swapaxes(1, 2)
+    if (spare is not None and spare.cost.shape[0] >= b and spare.residual.shape[1:] == (n,)
+            and spare.nuisance.shape[1:] == (k,) and (p is None or (
+                jt is not None and jt.shape[1] == p and jt.flags.c_contiguous))
+            and all(a.flags.c_contiguous and a.dtype == np.float64
+                    for a in (spare.nuisance, spare.residual, spare.cost))):
+        return (spare.nuisance[:b], spare.residual[:b], spare.cost[:b],
+                None if p is None or jt is None else jt[:b])
+    return (np.empty((b, k)), np.empty((b, n)), np.empty(b),
+            None if p is None else np.empty((b, p, n)))
+
+
 @contextmanager
 def compiled_batches(wanted: bool) -> Iterator[None]:
     """Evaluate by the compiled kernel wherever it applies (True), or never, for a while."""
@@ -307,7 +322,8 @@ class VarProProblem:
         return self.evaluate_part(theta, self.data_part(y, nu_star), nu_star, with_jacobian)
 
     def evaluate_part(self, theta: Array, u: Array, nu_star: Array,
-                      with_jacobian: bool = True, quiet: bool = False) -> Evaluation:
+                      with_jacobian: bool = True, quiet: bool = False,
+                      spare: Evaluation | None = None) -> Evaluation:
         """Evaluate as :meth:`evaluate`, from the data part ``u`` ``(B, n)`` of :meth:`data_part`.
 
         Parameters
@@ -316,6 +332,9 @@ class VarProProblem:
             As for :meth:`evaluate`.
         quiet : bool
             The caller already ignores floating-point errors.
+        spare : Evaluation, optional
+            An evaluation of at least ``B`` points no longer read, whose arrays the new one may
+            take (a solver's previous trial).
 
         Returns
         -------
@@ -323,13 +342,13 @@ class VarProProblem:
         """
         theta = np.asarray(theta, dtype=float)
         if quiet:
-            return self._evaluate_any(theta, u, nu_star, with_jacobian)
+            return self._evaluate_any(theta, u, nu_star, with_jacobian, spare)
         # Trial points may sit on a sensor (zero range): their cost is infinite, not an error.
         with np.errstate(invalid="ignore", divide="ignore"):
-            return self._evaluate_any(theta, u, nu_star, with_jacobian)
+            return self._evaluate_any(theta, u, nu_star, with_jacobian, spare)
 
-    def _evaluate_any(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
-                      ) -> Evaluation:
+    def _evaluate_any(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool,
+                      spare: Evaluation | None = None) -> Evaluation:
         """Evaluate by chunks of rows or at once (see :meth:`evaluate_part`)."""
         if self._batch_plan is not False and _compiled_batches[0]:
             compiled = self._evaluate_batch_compiled(theta, u, nu_star, with_jacobian)
@@ -338,7 +357,7 @@ class VarProProblem:
         if u.shape[-1] > blas.CHUNKED_ROWS and self.k == 0:
             return self._evaluate_chunked(theta, u, nu_star, with_jacobian)
         if self.eliminates and u.shape[0] > _starts_per_block(u.shape[-1]):
-            return self._evaluate_blocks(theta, u, nu_star, with_jacobian)
+            return self._evaluate_blocks(theta, u, nu_star, with_jacobian, spare)
         return self._evaluate(theta, u, nu_star, with_jacobian)
 
     def _evaluate_batch_compiled(self, theta: Array, u: Array, nu_star: Array,
@@ -378,12 +397,11 @@ class VarProProblem:
         return Evaluation(theta, np.array(nu_star, dtype=float), r, cost, None,
                           (gram, grad) if with_jacobian else None)
 
-    def _evaluate_blocks(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
-                         ) -> Evaluation:
+    def _evaluate_blocks(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool,
+                         spare: Evaluation | None = None) -> Evaluation:
         """Evaluate as :meth:`_evaluate` (the same numbers), by blocks of points."""
         b, n = u.shape
-        nu, r, cost = np.empty((b, self.k)), np.empty((b, n)), np.empty(b)
-        jt = np.empty((b, self.p, n)) if with_jacobian else None  # (the layout _evaluate gives)
+        nu, r, cost, jt = _buffers(spare, b, n, self.k, self.p if with_jacobian else None)
         size = _starts_per_block(n)
         for lo in range(0, b, size):
             part = self._evaluate(theta[lo:lo + size], u[lo:lo + size], nu_star[lo:lo + size],
