@@ -6,6 +6,7 @@ over a leading batch axis; :class:`Evaluation` holds what a Gauss–Newton step 
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -402,15 +403,15 @@ class VarProProblem:
         """Evaluate as :meth:`_evaluate` (the same numbers), by blocks of points."""
         b, n = u.shape
         nu, r, cost, jt = _buffers(spare, b, n, self.k, self.p if with_jacobian else None)
-        size = _starts_per_block(n)
-        for lo in range(0, b, size):
-            part = self._evaluate(theta[lo:lo + size], u[lo:lo + size], nu_star[lo:lo + size],
-                                  with_jacobian)
-            nu[lo:lo + size], r[lo:lo + size], cost[lo:lo + size] = (
-                part.nuisance, part.residual, part.cost)
+        edges = [*range(0, b, _starts_per_block(n)), b]
+        if edges[-1] - edges[-2] == 1:  # a point alone takes other paths (other last bits)
+            del edges[-2]
+        for lo, hi in itertools.pairwise(edges):
+            part = self._evaluate(theta[lo:hi], u[lo:hi], nu_star[lo:hi], with_jacobian)
+            nu[lo:hi], r[lo:hi], cost[lo:hi] = part.nuisance, part.residual, part.cost
             if jt is not None:
                 assert part.jacobian is not None  # (an eliminating evaluation holds it)
-                jt[lo:lo + size] = part.jacobian.swapaxes(1, 2)
+                jt[lo:hi] = part.jacobian.swapaxes(1, 2)
         return Evaluation(theta, nu, r, cost, None if jt is None else jt.swapaxes(1, 2))
 
     def _evaluate(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
