@@ -335,9 +335,8 @@ class _Runs:
             return
         keep = ~mask
         self.ids = self.ids[keep]
-        if self.cur is not self.out:
-            self.spare = self.cur
-        self.cur = self.cur.take(keep)
+        cur, self.cur = self.cur, self.cur.take(keep, self.spare)
+        self.spare = None if cur is self.out else cur
         self.u, self.nu_star = self.u[keep], self.nu_star[keep]
         self.lam, self.grow = self.lam[keep], self.grow[keep]
         self.rejected = self.rejected[keep]
