@@ -420,16 +420,14 @@ class VarProProblem:
         edges = [*range(0, b, _starts_per_block(n)), b]
         if edges[-1] - edges[-2] == 1:  # a point alone takes other paths (other last bits)
             del edges[-2]
-        for lo, hi in itertools.pairwise(edges):
-            part = self._evaluate(theta[lo:hi], u[lo:hi], nu_star[lo:hi], with_jacobian)
-            nu[lo:hi], r[lo:hi], cost[lo:hi] = part.nuisance, part.residual, part.cost
-            if jt is not None:
-                assert part.jacobian is not None  # (an eliminating evaluation holds it)
-                jt[lo:hi] = part.jacobian.swapaxes(1, 2)
+        for lo, hi in itertools.pairwise(edges):  # (nu, r and J' written in place)
+            cost[lo:hi] = self._evaluate(theta[lo:hi], u[lo:hi], nu_star[lo:hi], with_jacobian,
+                                         (nu[lo:hi], r[lo:hi], None if jt is None
+                                          else jt[lo:hi])).cost
         return Evaluation(theta, nu, r, cost, None if jt is None else jt.swapaxes(1, 2))
 
-    def _evaluate(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
-                  ) -> Evaluation:
+    def _evaluate(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool,
+                  into: tuple[Array, Array, Array | None] | None = None) -> Evaluation:
         # design and Jacobian transposed, (B, k, n) and (B, p, n): operations run along rows
         lin = self.obs.linearisation(theta, with_jacobian, weights=self._weights)
         at = lin.a_var.swapaxes(-1, -2) if self.k else None
@@ -450,7 +448,7 @@ class VarProProblem:
         nu, jac, normal = nu_star, None, None
         if self.eliminates:
             assert at is not None  # (a nuisance to eliminate has its design)
-            nu, r, jt = self._project(lin, nu_star, at, r, with_jacobian)
+            nu, r, jt = self._project(lin, nu_star, at, r, with_jacobian, into)
             jac = None if jt is None else jt.swapaxes(1, 2)
         elif with_jacobian and (lin.planar_jacobian is not None or (
                 normal := motion_normal(self.obs, lin, r, self._weights)) is None):
@@ -469,8 +467,10 @@ class VarProProblem:
         return Evaluation(theta, nu, r, cost, jac, normal)
 
     def _project(self, lin: Linearisation, nu_star: Array, at: Array, r: Array,
-                 with_jacobian: bool) -> tuple[Array, Array, Array | None]:
-        """Eliminate the nuisance: give ``nu``, the projected residual and Jacobian."""
+                 with_jacobian: bool, into: tuple[Array, Array, Array | None] | None = None
+                 ) -> tuple[Array, Array, Array | None]:
+        """Eliminate the nuisance: give ``nu``, the projected residual, ``J'`` (into ``into``)."""
+        nu_out, r_out, jt_out = (None, None, None) if into is None else into
         assert self._const_w_t is not None  # (made when there is a nuisance)
         q = self._const_w_t + self.noise.whiten(at)
         norm = np.sqrt(np.einsum("bkn,bkn->bk", q, q))
@@ -486,8 +486,8 @@ class VarProProblem:
         coef = q @ r[:, :, None]
         if ginv is not None:
             coef = ginv @ coef
-        nu = nu_star + coef[..., 0] / norm
-        r = r - (qt @ coef)[..., 0]
+        nu = np.add(nu_star, coef[..., 0] / norm, out=nu_out)
+        r = np.subtract(r, (qt @ coef)[..., 0], out=r_out)
         jt = None
         if with_jacobian:
             # Kaufman's projected Jacobian, at the eliminated nuisance.
@@ -495,7 +495,7 @@ class VarProProblem:
             proj = jt @ qt
             if ginv is not None:
                 proj = proj @ ginv
-            jt = jt - proj @ q
+            jt = np.subtract(jt, proj @ q, out=jt_out)
         return nu, r, jt
 
     def initial_nuisance(self, theta: Array, y: Array) -> Array:
