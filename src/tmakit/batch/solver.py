@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from ..core.arrays import Array
 from ..core.blas import SINGLE_THREAD_WORK, by_dots, normal_rows
 from ..core.linalg import eigh
-from .varpro import Evaluation, VarProProblem
+from .varpro import DeferredNormal, Evaluation, VarProProblem
 
 __all__ = ["DAMPING", "DOMINANCE_FACTOR", "DOMINANCE_MARGIN", "POLISH_INFORMATION", "Evaluation",
            "GaussNewtonModel", "SolveResult", "VarProProblem", "gram", "information_of",
@@ -573,6 +573,31 @@ def _polished(problem: VarProProblem, runs: _Runs, rules: _Rules) -> bool:
     return True
 
 
+def _accept(runs: _Runs, cur: Evaluation, trial: Evaluation, better: NDArray[np.bool_]) -> None:
+    """Make the runs' points the trial's where ``better``; the evaluation left over is the spare."""
+    runs.model = None
+    n_better = int(np.count_nonzero(better))
+    if n_better == better.size:
+        runs.spare = None if cur is runs.out else cur
+        runs.cur = trial
+    elif (_plain(cur) and _plain(trial) and (cur.jacobian is None) == (trial.jacobian is None)
+          and (cur is runs.out or 2 * n_better > better.size)):
+        # The fewer rows copied: the rejected into the trial (never into the stopped runs' out).
+        trial.put(~better, cur, ~better)
+        runs.spare = None if cur is runs.out else cur
+        runs.cur = trial
+    else:
+        if cur is runs.out:  # never write into the results of stopped runs
+            runs.cur = cur.take(np.ones(cur.cost.shape[0], dtype=np.bool_))
+        runs.cur.put(better, trial, better)
+        runs.spare = trial
+
+
+def _plain(ev: Evaluation) -> bool:
+    """Tell whether ``ev``'s rows are copied as they are (no normal equations summed when read)."""
+    return not isinstance(ev.normal, DeferredNormal)
+
+
 def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) -> _Runs:
     """Run the iterations of :func:`levenberg_marquardt` (see there for the tests)."""
     free, plain = rules.free, rules.plain
@@ -606,20 +631,8 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
         tiny = better & (lam <= 1e-2)
         if tiny.any():
             tiny &= (np.abs(step) <= rules.xtol * (np.abs(trial.theta) + 1.0)).all(axis=1)
-        if better.all():
-            runs.spare = None if cur is runs.out else cur
-            runs.cur, runs.model = trial, None
-        elif better.any():
-            if runs.cur is not runs.out:
-                runs.cur.put(better, trial, better)
-                runs.spare = trial
-            elif trial.normal is None and cur.normal is None:  # (stopped runs' results kept)
-                trial.put(~better, cur, ~better)  # the same rows, in the trial's arrays
-                runs.cur = trial
-            else:
-                runs.cur = cur.take(np.ones(cur.cost.shape[0], dtype=np.bool_))
-                runs.cur.put(better, trial, better)
-            runs.model = None
+        if better.any():
+            _accept(runs, cur, trial, better)
         else:
             runs.spare = trial
         give_up = runs.lam > 1e12
