@@ -98,15 +98,16 @@ class Evaluation:
         if spare is not None and self.normal is None and rows.dtype == np.bool_:
             jt = None if self.jacobian is None else self.jacobian.swapaxes(1, 2)
             if jt is None or jt.flags.c_contiguous:
-                m, n = int(np.count_nonzero(rows)), self.residual.shape[1]
+                mask = np.asarray(rows, dtype=np.bool_)  # (the same array)
+                m, n = int(np.count_nonzero(mask)), self.residual.shape[1]
                 nu, r, cost, jt_out = _buffers(spare, m, n, self.nuisance.shape[1],
                                                None if jt is None else jt.shape[1])
-                np.compress(rows, self.nuisance, 0, nu)
-                np.compress(rows, self.residual, 0, r)
-                np.compress(rows, self.cost, 0, cost)
+                np.compress(mask, self.nuisance, 0, nu)
+                np.compress(mask, self.residual, 0, r)
+                np.compress(mask, self.cost, 0, cost)
                 if jt is not None and jt_out is not None:
-                    np.compress(rows, jt, 0, jt_out)
-                return Evaluation(self.theta[rows], nu, r, cost,
+                    np.compress(mask, jt, 0, jt_out)
+                return Evaluation(self.theta[mask], nu, r, cost,
                                   None if jt_out is None else jt_out.swapaxes(1, 2))
         normal = self.normal
         if isinstance(normal, DeferredNormal):
