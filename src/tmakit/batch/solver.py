@@ -580,8 +580,7 @@ def _accept(runs: _Runs, cur: Evaluation, trial: Evaluation, better: NDArray[np.
     if n_better == better.size:
         runs.spare = None if cur is runs.out else cur
         runs.cur = trial
-    elif (_plain(cur) and _plain(trial) and (cur.jacobian is None) == (trial.jacobian is None)
-          and (cur is runs.out or 2 * n_better > better.size)):
+    elif (_same_form(cur, trial) and (cur is runs.out or 2 * n_better > better.size)):
         # The fewer rows copied: the rejected into the trial (never into the stopped runs' out).
         trial.put(~better, cur, ~better)
         runs.spare = None if cur is runs.out else cur
@@ -593,9 +592,11 @@ def _accept(runs: _Runs, cur: Evaluation, trial: Evaluation, better: NDArray[np.
         runs.spare = trial
 
 
-def _plain(ev: Evaluation) -> bool:
-    """Tell whether ``ev``'s rows are copied as they are (no normal equations summed when read)."""
-    return not isinstance(ev.normal, DeferredNormal)
+def _same_form(a: Evaluation, b: Evaluation) -> bool:
+    """Tell whether ``a`` and ``b`` hold the same parts, each copied row by row as it is."""
+    return (not isinstance(a.normal, DeferredNormal) and not isinstance(b.normal, DeferredNormal)
+            and (a.jacobian is None) == (b.jacobian is None)
+            and (a.normal is None) == (b.normal is None))
 
 
 def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) -> _Runs:
