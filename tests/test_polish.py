@@ -32,10 +32,10 @@ def _counting(monkeypatch: pytest.MonkeyPatch) -> collections.Counter:
     counts: collections.Counter = collections.Counter()
     evaluate = VarProProblem._evaluate_any
 
-    def counted(self, theta, u, nu_star, with_jacobian):
+    def counted(self, theta, u, nu_star, with_jacobian, spare=None):
         if u.shape[-1] > ml.PRESOLVE_ROWS:
             counts["jacobian" if with_jacobian else "residuals"] += 1
-        return evaluate(self, theta, u, nu_star, with_jacobian)
+        return evaluate(self, theta, u, nu_star, with_jacobian, spare)
 
     monkeypatch.setattr(VarProProblem, "_evaluate_any", counted)
     return counts

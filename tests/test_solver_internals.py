@@ -410,3 +410,54 @@ def test_held_parameters_fit_as_the_reduced_model(gu_problem):
     np.testing.assert_allclose(held.theta[0, free], alone.theta[0], rtol=1e-7)
     with pytest.raises(ValueError, match="damping"):
         levenberg_marquardt(problem, y, start[None], damping="fast")
+
+
+def test_an_evaluation_by_blocks_of_points_is_the_evaluation_at_once(gu_problem, monkeypatch):
+    """Blocks of 16 points (the last point joins the last block: a point alone takes other
+    paths), into new arrays or a spare's: the same bits and memory layout as one evaluation of
+    every point."""
+    from tmakit.batch import varpro
+
+    problem, y = gu_problem
+    assert problem.eliminates
+    gu = tk.load_scenario("gu2007")
+    theta = gu.theta + np.random.default_rng(4).standard_normal((33, 4)) * [3e3, 3e3, 5.0, 5.0]
+    theta[5, :2] = problem.obs.meas.sensor_state[0, :2]  # on a sensor: no prediction
+    u = np.repeat(y[None], 33, 0)
+    nu_star = problem.reference_nuisance(u)
+    u = problem.data_part(u, nu_star)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        whole = problem._evaluate(theta, u, nu_star, True)
+    monkeypatch.setattr(varpro, "BLOCK_WORK", 1)  # blocks of FEWEST_PER_BLOCK points
+    assert varpro._starts_per_block(u.shape[1]) == 16
+    spare = problem.evaluate_part(theta[::-1], u, nu_star, True)
+    for given in (None, spare):
+        blocks = problem.evaluate_part(theta, u, nu_star, True, spare=given)
+        for name in ("nuisance", "residual", "cost", "jacobian"):
+            got, want = getattr(blocks, name), getattr(whole, name)
+            np.testing.assert_array_equal(got, want, err_msg=name)
+            assert got.strides == want.strides, name
+    assert np.shares_memory(blocks.jacobian, spare.jacobian)  # the spare's arrays were taken
+    assert whole.cost[5] == np.inf
+
+
+def test_the_solver_gives_the_same_bits_with_fresh_arrays_for_every_trial(gu_problem,
+                                                                         monkeypatch):
+    """Trials written into the arrays of evaluations no longer read change nothing."""
+    from tmakit.batch import varpro
+
+    problem, y = gu_problem
+    starts = best_starts_many(problem, y[None])[0].first(40)
+    reused = levenberg_marquardt(problem, y, starts, groups=np.zeros(len(starts), int))
+    taken = []
+    real = varpro._buffers
+
+    def fresh(spare, *shape):
+        taken.append(spare is not None)
+        return real(None, *shape)
+
+    monkeypatch.setattr(varpro, "_buffers", fresh)
+    alone = levenberg_marquardt(problem, y, starts, groups=np.zeros(len(starts), int))
+    assert sum(taken) >= 2  # (trials were offered a spare)
+    for name in ("theta", "nuisance", "cost", "iterations", "converged", "dominated"):
+        np.testing.assert_array_equal(getattr(reused, name), getattr(alone, name), err_msg=name)

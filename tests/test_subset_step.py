@@ -83,10 +83,10 @@ def test_fit_with_the_subset_step_is_the_fit_without(large, monkeypatch) -> None
     counts: collections.Counter = collections.Counter()
     evaluate, gradient = VarProProblem._evaluate_any, ml.gradient_at
 
-    def counted(self, theta, u, nu_star, with_jacobian):
+    def counted(self, theta, u, nu_star, with_jacobian, spare=None):
         if u.shape[-1] > ml.PRESOLVE_ROWS:
             counts["jacobian" if with_jacobian else "residuals"] += 1
-        return evaluate(self, theta, u, nu_star, with_jacobian)
+        return evaluate(self, theta, u, nu_star, with_jacobian, spare)
 
     def counted_gradient(problem, theta, u):
         counts["gradient"] += 1

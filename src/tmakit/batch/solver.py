@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from ..core.arrays import Array
 from ..core.blas import SINGLE_THREAD_WORK, by_dots, normal_rows
 from ..core.linalg import eigh
-from .varpro import Evaluation, VarProProblem
+from .varpro import DeferredNormal, Evaluation, VarProProblem
 
 __all__ = ["DAMPING", "DOMINANCE_FACTOR", "DOMINANCE_MARGIN", "POLISH_INFORMATION", "Evaluation",
            "GaussNewtonModel", "SolveResult", "VarProProblem", "gram", "information_of",
@@ -292,6 +292,8 @@ class _Runs:
         # costs after the last iterations, by run (a ring over _STALL_WINDOW + 1 slots)
         self.history = np.tile(out.cost, (_STALL_WINDOW + 1, 1)) if stall else None
         self.model: GaussNewtonModel | None = None
+        # an evaluation no longer read, whose arrays the next trial takes (no new pages)
+        self.spare: Evaluation | None = None
         self.information: Array | None = None  # J'J of stopped runs at their final points
         self.last_model: GaussNewtonModel | None = None  # a single run's, when it stopped
         # a single run's previous point and its J'J (how fast J'J changes: information_steady)
@@ -333,7 +335,8 @@ class _Runs:
             return
         keep = ~mask
         self.ids = self.ids[keep]
-        self.cur = self.cur.take(keep)
+        cur, self.cur = self.cur, self.cur.take(keep, self.spare)
+        self.spare = None if cur is self.out else cur
         self.u, self.nu_star = self.u[keep], self.nu_star[keep]
         self.lam, self.grow = self.lam[keep], self.grow[keep]
         self.rejected = self.rejected[keep]
@@ -570,6 +573,32 @@ def _polished(problem: VarProProblem, runs: _Runs, rules: _Rules) -> bool:
     return True
 
 
+def _accept(runs: _Runs, cur: Evaluation, trial: Evaluation, better: NDArray[np.bool_]) -> None:
+    """Make the runs' points the trial's where ``better``; the evaluation left over is the spare."""
+    runs.model = None
+    n_better = int(np.count_nonzero(better))
+    if n_better == better.size:
+        runs.spare = None if cur is runs.out else cur
+        runs.cur = trial
+    elif (_same_form(cur, trial) and (cur is runs.out or 2 * n_better > better.size)):
+        # The fewer rows copied: the rejected into the trial (never into the stopped runs' out).
+        trial.put(~better, cur, ~better)
+        runs.spare = None if cur is runs.out else cur
+        runs.cur = trial
+    else:
+        if cur is runs.out:  # never write into the results of stopped runs
+            runs.cur = cur.take(np.ones(cur.cost.shape[0], dtype=np.bool_))
+        runs.cur.put(better, trial, better)
+        runs.spare = trial
+
+
+def _same_form(a: Evaluation, b: Evaluation) -> bool:
+    """Tell whether ``a`` and ``b`` hold the same parts, each copied row by row as it is."""
+    return (not isinstance(a.normal, DeferredNormal) and not isinstance(b.normal, DeferredNormal)
+            and (a.jacobian is None) == (b.jacobian is None)
+            and (a.normal is None) == (b.normal is None))
+
+
 def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) -> _Runs:
     """Run the iterations of :func:`levenberg_marquardt` (see there for the tests)."""
     free, plain = rules.free, rules.plain
@@ -587,7 +616,9 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
             full = np.zeros_like(cur.theta)
             full[:, free] = step
             step = full
-        trial = problem.evaluate_part(cur.theta + step, runs.u, runs.nu_star, True, quiet=True)
+        trial = problem.evaluate_part(cur.theta + step, runs.u, runs.nu_star, True, quiet=True,
+                                      spare=runs.spare)
+        runs.spare = None  # (its arrays may be the trial's now)
         if lam.shape[0] == 1 and plain:  # one run: its tests in floats
             runs.iterations[int(runs.ids[0])] += 1
             _after_step_one(runs, trial, step, float(predicted[0]), rules)
@@ -601,13 +632,10 @@ def _iterate(problem: VarProProblem, runs: _Runs, max_iter: int, rules: _Rules) 
         tiny = better & (lam <= 1e-2)
         if tiny.any():
             tiny &= (np.abs(step) <= rules.xtol * (np.abs(trial.theta) + 1.0)).all(axis=1)
-        if better.all():
-            runs.cur, runs.model = trial, None
-        elif better.any():
-            if runs.cur is runs.out:  # never write into the results of stopped runs
-                runs.cur = cur.take(np.ones(cur.cost.shape[0], dtype=np.bool_))
-            runs.cur.put(better, trial, better)
-            runs.model = None
+        if better.any():
+            _accept(runs, cur, trial, better)
+        else:
+            runs.spare = trial
         give_up = runs.lam > 1e12
         if rules.max_reject is not None:
             runs.rejected = np.where(better, 0, runs.rejected + 1)

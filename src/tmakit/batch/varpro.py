@@ -6,6 +6,7 @@ over a leading batch axis; :class:`Evaluation` holds what a Gauss–Newton step 
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -91,8 +92,23 @@ class Evaluation:
     # (B, p, p) J'J and (B, p) J'r: by chunks, or summed when first read (DeferredNormal)
     normal: tuple[Array, Array] | DeferredNormal | None = None
 
-    def take(self, rows: NDArray[np.bool_] | NDArray[np.int64]) -> Evaluation:
-        """Copy the evaluations of ``rows``."""
+    def take(self, rows: NDArray[np.bool_] | NDArray[np.int64],
+             spare: Evaluation | None = None) -> Evaluation:
+        """Copy the evaluations of ``rows`` (a mask: into ``spare``'s arrays where they fit)."""
+        if spare is not None and self.normal is None and rows.dtype == np.bool_:
+            jt = None if self.jacobian is None else self.jacobian.swapaxes(1, 2)
+            if jt is None or jt.flags.c_contiguous:
+                mask = np.asarray(rows, dtype=np.bool_)  # (the same array)
+                m, n = int(np.count_nonzero(mask)), self.residual.shape[1]
+                nu, r, cost, jt_out = _buffers(spare, m, n, self.nuisance.shape[1],
+                                               None if jt is None else jt.shape[1])
+                np.compress(mask, self.nuisance, 0, nu)
+                np.compress(mask, self.residual, 0, r)
+                np.compress(mask, self.cost, 0, cost)
+                if jt is not None and jt_out is not None:
+                    np.compress(mask, jt, 0, jt_out)
+                return Evaluation(self.theta[mask], nu, r, cost,
+                                  None if jt_out is None else jt_out.swapaxes(1, 2))
         normal = self.normal
         if isinstance(normal, DeferredNormal):
             normal = normal.take(rows)  # (still deferred unless already summed)
@@ -134,6 +150,32 @@ def normal_of(ev: Evaluation) -> tuple[Array, Array] | DeferredNormal | None:
 
 
 _compiled_batches = [False]  # inside compiled_batches(True)
+
+BLOCK_WORK = 6_000
+"""Points times rows evaluated at once when a nuisance is eliminated: the evaluation's dozen
+temporaries ``(B, n, .)`` then stay small enough to be reused from one block to the next,
+instead of growing the heap for every batch of a Monte Carlo study (fresh pages: page faults)."""
+FEWEST_PER_BLOCK = 16
+
+
+def _starts_per_block(rows: int) -> int:
+    """Give the points of one block of :meth:`VarProProblem._evaluate_blocks`."""
+    return max(FEWEST_PER_BLOCK, BLOCK_WORK // max(1, rows))
+
+
+def _buffers(spare: Evaluation | None, b: int, n: int, k: int, p: int | None
+             ) -> tuple[Array, Array, Array, Array | None]:
+    """Give ``nu``, ``r``, ``cost`` and ``J'`` ``(b, p, n)`` to fill: ``spare``'s, or new."""
+    jt = None if spare is None or spare.jacobian is None else spare.jacobian.swapaxes(1, 2)
+    if (spare is not None and spare.cost.shape[0] >= b and spare.residual.shape[1:] == (n,)
+            and spare.nuisance.shape[1:] == (k,) and (p is None or (
+                jt is not None and jt.shape[1] == p and jt.flags.c_contiguous))
+            and all(a.flags.c_contiguous and a.dtype == np.float64
+                    for a in (spare.nuisance, spare.residual, spare.cost))):
+        return (spare.nuisance[:b], spare.residual[:b], spare.cost[:b],
+                None if p is None or jt is None else jt[:b])
+    return (np.empty((b, k)), np.empty((b, n)), np.empty(b),
+            None if p is None else np.empty((b, p, n)))
 
 
 @contextmanager
@@ -296,7 +338,8 @@ class VarProProblem:
         return self.evaluate_part(theta, self.data_part(y, nu_star), nu_star, with_jacobian)
 
     def evaluate_part(self, theta: Array, u: Array, nu_star: Array,
-                      with_jacobian: bool = True, quiet: bool = False) -> Evaluation:
+                      with_jacobian: bool = True, quiet: bool = False,
+                      spare: Evaluation | None = None) -> Evaluation:
         """Evaluate as :meth:`evaluate`, from the data part ``u`` ``(B, n)`` of :meth:`data_part`.
 
         Parameters
@@ -305,6 +348,9 @@ class VarProProblem:
             As for :meth:`evaluate`.
         quiet : bool
             The caller already ignores floating-point errors.
+        spare : Evaluation, optional
+            An evaluation of at least ``B`` points no longer read, whose arrays the new one may
+            take (a solver's previous trial).
 
         Returns
         -------
@@ -312,13 +358,13 @@ class VarProProblem:
         """
         theta = np.asarray(theta, dtype=float)
         if quiet:
-            return self._evaluate_any(theta, u, nu_star, with_jacobian)
+            return self._evaluate_any(theta, u, nu_star, with_jacobian, spare)
         # Trial points may sit on a sensor (zero range): their cost is infinite, not an error.
         with np.errstate(invalid="ignore", divide="ignore"):
-            return self._evaluate_any(theta, u, nu_star, with_jacobian)
+            return self._evaluate_any(theta, u, nu_star, with_jacobian, spare)
 
-    def _evaluate_any(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
-                      ) -> Evaluation:
+    def _evaluate_any(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool,
+                      spare: Evaluation | None = None) -> Evaluation:
         """Evaluate by chunks of rows or at once (see :meth:`evaluate_part`)."""
         if self._batch_plan is not False and _compiled_batches[0]:
             compiled = self._evaluate_batch_compiled(theta, u, nu_star, with_jacobian)
@@ -326,6 +372,8 @@ class VarProProblem:
                 return compiled
         if u.shape[-1] > blas.CHUNKED_ROWS and self.k == 0:
             return self._evaluate_chunked(theta, u, nu_star, with_jacobian)
+        if self.eliminates and u.shape[0] > _starts_per_block(u.shape[-1]):
+            return self._evaluate_blocks(theta, u, nu_star, with_jacobian, spare)
         return self._evaluate(theta, u, nu_star, with_jacobian)
 
     def _evaluate_batch_compiled(self, theta: Array, u: Array, nu_star: Array,
@@ -365,8 +413,22 @@ class VarProProblem:
         return Evaluation(theta, np.array(nu_star, dtype=float), r, cost, None,
                           (gram, grad) if with_jacobian else None)
 
-    def _evaluate(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool
-                  ) -> Evaluation:
+    def _evaluate_blocks(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool,
+                         spare: Evaluation | None = None) -> Evaluation:
+        """Evaluate as :meth:`_evaluate` (the same numbers), by blocks of points."""
+        b, n = u.shape
+        nu, r, cost, jt = _buffers(spare, b, n, self.k, self.p if with_jacobian else None)
+        edges = [*range(0, b, _starts_per_block(n)), b]
+        if edges[-1] - edges[-2] == 1:  # a point alone takes other paths (other last bits)
+            del edges[-2]
+        for lo, hi in itertools.pairwise(edges):  # (nu, r and J' written in place)
+            cost[lo:hi] = self._evaluate(theta[lo:hi], u[lo:hi], nu_star[lo:hi], with_jacobian,
+                                         (nu[lo:hi], r[lo:hi], None if jt is None
+                                          else jt[lo:hi])).cost
+        return Evaluation(theta, nu, r, cost, None if jt is None else jt.swapaxes(1, 2))
+
+    def _evaluate(self, theta: Array, u: Array, nu_star: Array, with_jacobian: bool,
+                  into: tuple[Array, Array, Array | None] | None = None) -> Evaluation:
         # design and Jacobian transposed, (B, k, n) and (B, p, n): operations run along rows
         lin = self.obs.linearisation(theta, with_jacobian, weights=self._weights)
         at = lin.a_var.swapaxes(-1, -2) if self.k else None
@@ -387,7 +449,7 @@ class VarProProblem:
         nu, jac, normal = nu_star, None, None
         if self.eliminates:
             assert at is not None  # (a nuisance to eliminate has its design)
-            nu, r, jt = self._project(lin, nu_star, at, r, with_jacobian)
+            nu, r, jt = self._project(lin, nu_star, at, r, with_jacobian, into)
             jac = None if jt is None else jt.swapaxes(1, 2)
         elif with_jacobian and (lin.planar_jacobian is not None or (
                 normal := motion_normal(self.obs, lin, r, self._weights)) is None):
@@ -406,8 +468,10 @@ class VarProProblem:
         return Evaluation(theta, nu, r, cost, jac, normal)
 
     def _project(self, lin: Linearisation, nu_star: Array, at: Array, r: Array,
-                 with_jacobian: bool) -> tuple[Array, Array, Array | None]:
-        """Eliminate the nuisance: give ``nu``, the projected residual and Jacobian."""
+                 with_jacobian: bool, into: tuple[Array, Array, Array | None] | None = None
+                 ) -> tuple[Array, Array, Array | None]:
+        """Eliminate the nuisance: give ``nu``, the projected residual, ``J'`` (into ``into``)."""
+        nu_out, r_out, jt_out = (None, None, None) if into is None else into
         assert self._const_w_t is not None  # (made when there is a nuisance)
         q = self._const_w_t + self.noise.whiten(at)
         norm = np.sqrt(np.einsum("bkn,bkn->bk", q, q))
@@ -423,8 +487,8 @@ class VarProProblem:
         coef = q @ r[:, :, None]
         if ginv is not None:
             coef = ginv @ coef
-        nu = nu_star + coef[..., 0] / norm
-        r = r - (qt @ coef)[..., 0]
+        nu = np.add(nu_star, coef[..., 0] / norm, out=nu_out)
+        r = np.subtract(r, (qt @ coef)[..., 0], out=r_out)
         jt = None
         if with_jacobian:
             # Kaufman's projected Jacobian, at the eliminated nuisance.
@@ -432,7 +496,7 @@ class VarProProblem:
             proj = jt @ qt
             if ginv is not None:
                 proj = proj @ ginv
-            jt = jt - proj @ q
+            jt = np.subtract(jt, proj @ q, out=jt_out)
         return nu, r, jt
 
     def initial_nuisance(self, theta: Array, y: Array) -> Array:
