@@ -82,6 +82,20 @@ def test_a_long_preamble_streams_until_the_scan_ends(tmp_path, lines):
     assert streamed.metadata == full.metadata and len(full.metadata) == lines
 
 
+# a bad byte in a column the stream skips, before 64 KiB, past it, past the 1 MiB scanned
+@pytest.mark.parametrize(("row", "refused"), [(100, True), (3_000, True), (30_000, False)])
+def test_a_non_utf8_cell_of_an_extra_column_refused_within_the_scan(tmp_path, row, refused):
+    rows = [f"{r},x" for r in two_sensor_rows(15_000)]
+    rows[row] = rows[row][:-1] + "\udce9t\udce9"  # bytes e9 74 e9: not UTF-8
+    path = tmp_path / "note.csv"
+    path.write_bytes("\n".join(["# tmakit measurements v1", HEADER + ",note", *rows]).encode(
+        "utf-8", "surrogateescape") + b"\n")
+    assert (csv_file.stream_csv(path) is None) == refused  # the checker says why
+    if refused:
+        with pytest.raises(MeasurementFileError, match="not a UTF-8 text file"):
+            read_measurements(path)
+
+
 def test_a_streamed_set_holds_the_stated_bytes_per_row(tmp_path):
     path = write_rows(tmp_path / "obs.csv", two_sensor_rows(500))
     meas = csv_file.stream_csv(path)

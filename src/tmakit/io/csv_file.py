@@ -91,11 +91,18 @@ def split_metadata(text: str) -> tuple[dict[str, str], int, int]:
     return metadata, consumed, pre_lines
 
 
+def _text(data: bytes, complete: bool) -> str | None:
+    """Decode UTF-8 without a BOM (None if not UTF-8; unless complete, a cut last character)."""
+    try:
+        return codecs.getincrementaldecoder("utf-8-sig")().decode(data, final=complete)
+    except UnicodeDecodeError:
+        return None
+
+
 def _preamble(data: bytes, complete: bool) -> tuple[dict[str, str], int, int] | None:
     """Split the ``# key: value`` lines off the start of a file: metadata, header byte, lines."""
-    try:
-        text = codecs.getincrementaldecoder("utf-8-sig")().decode(data, final=complete)
-    except UnicodeDecodeError:
+    text = _text(data, complete)
+    if text is None:
         return None
     metadata, consumed, lines = split_metadata(text)
     if consumed >= len(text) and not complete:
@@ -404,11 +411,13 @@ def stream_csv(path: Path, scan: int = 1 << 20,
                origin: tuple[float, float, float] | None = None) -> MeasurementSet | None:
     """Read a valid CSV measurement file in bounded memory."""
     with open(path, "rb") as f:
-        head = f.read(min(scan, 1 << 16))  # a preamble is a few lines: 64 KiB first
-        found = _preamble(head, complete=len(head) < min(scan, 1 << 16))
-        if found is None and len(head) < scan:
+        first = min(scan, 1 << 16)
+        head = f.read(first)  # a preamble is a few lines: 64 KiB first
+        found = _preamble(head, complete=len(head) < first)
+        unread = len(head) == first < scan  # bytes of the scan not decoded yet
+        if found is None and unread:
             head += f.read(scan - len(head))
-            found = _preamble(head, complete=len(head) < scan)
+            found, unread = _preamble(head, complete=len(head) < scan), False
     if found is None:
         return None
     metadata, start, _ = found
@@ -416,6 +425,11 @@ def stream_csv(path: Path, scan: int = 1 << 20,
     if names is None:
         return None
     stripped = {n.strip() for n in names}
+    if unread and not READ_COLUMNS.issuperset(stripped):  # cells the stream does not read:
+        with open(path, "rb") as f:  # decoded in the scan, as the full checker decodes them
+            head = f.read(scan)
+        if _text(head, complete=len(head) < scan) is None:
+            return None
     if "tonal" in stripped:  # (tonals: the full reader)
         return None
     enu_origin: tuple[float, float, float] | None = None
