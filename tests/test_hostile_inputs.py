@@ -108,3 +108,20 @@ def test_two_contacts_of_one_sensor_at_one_time_are_refused_naming_them(tmp_path
     one = tk.read_measurements(rep, ownship="MER", contact="GreenFV1_011")
     bearings = one.select(kind="bearing")
     assert len(bearings) > 100 and (np.diff(bearings.time) > 0).all()
+
+
+def test_a_range_difference_plan_shorter_than_its_lag_is_refused_naming_the_lag(tmp_path):
+    """Once an internal KeyError in ``simulate``: a plan that can form no difference at all."""
+    text = (Path(tk.__file__).parent / "scenario" / "builtin" / "chen-sun-1.toml").read_text()
+    at = text.index('kind = "range_difference"')
+    short = text[:at] + text[at:].replace("start = 0.0, stop = 100.0", "start = 5.0, stop = 5.0", 1)
+    path = tmp_path / "short.toml"
+    path.write_text(short)
+    with pytest.raises(ValueError, match=r"span 0 s, less than the shortest lag \(1 x pri 1 s\)"):
+        tk.load_scenario(path)
+    result = CliRunner().invoke(app, ["simulate", str(path), "-o", str(tmp_path / "m.csv")])
+    assert result.exit_code == 2 and "no difference can be formed" in result.output
+    assert "internal error" not in result.output and not (tmp_path / "m.csv").exists()
+    fits = text[:at] + text[at:].replace("start = 0.0, stop = 100.0", "start = 5.0, stop = 6.0", 1)
+    path.write_text(fits)
+    assert len(tk.load_scenario(path).simulate(rng=1).select(kind="range_difference")) == 1

@@ -100,6 +100,12 @@ class MeasurementPlan:
             if not self.lags or any(int(lag) < 1 for lag in self.lags):
                 raise ValueError(f"{self.kind}: lags must be whole numbers >= 1")
             self.lags = tuple(int(lag) for lag in self.lags)
+            span = float(self.times[-1] - self.times[0])
+            if span < min(self.lags) * self.pri - 1e-9 * max(1.0, abs(float(self.times[0]))):
+                raise ValueError(
+                    f"{self.kind} from {self.sensor}: the sample times span {span:g} s, less "
+                    f"than the shortest lag ({min(self.lags)} x pri {self.pri:g} s), so no "
+                    "difference can be formed; sample over at least lag x pri seconds")
 
 
 def _noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],
