@@ -125,3 +125,18 @@ def test_a_range_difference_plan_shorter_than_its_lag_is_refused_naming_the_lag(
     fits = text[:at] + text[at:].replace("start = 0.0, stop = 100.0", "start = 5.0, stop = 6.0", 1)
     path.write_text(fits)
     assert len(tk.load_scenario(path).simulate(rng=1).select(kind="range_difference")) == 1
+
+
+def test_a_range_difference_plan_of_too_many_pulse_intervals_is_refused_naming_pri(tmp_path):
+    """Once an internal IndexError in ``simulate`` (pri = 1e-300: the interval count overflowed)."""
+    text = (Path(tk.__file__).parent / "scenario" / "builtin" / "chen-sun-1.toml").read_text()
+    path = tmp_path / "tiny-pri.toml"
+    path.write_text(text.replace("pri = 1.0", "pri = 1e-300"))
+    with pytest.raises(ValueError, match=r"span 100 s, 1e\+302 pulse intervals of pri 1e-300 s; "
+                                         r"at most 1e\+08"):
+        tk.load_scenario(path)
+    result = CliRunner().invoke(app, ["simulate", str(path), "-o", str(tmp_path / "m.csv")])
+    assert result.exit_code == 2 and "give the pulse repetition interval pri" in result.output
+    assert "internal error" not in result.output and not (tmp_path / "m.csv").exists()
+    path.write_text(text.replace("pri = 1.0", "pri = 1e-6"))  # 1e8 intervals: at the limit
+    assert tk.load_scenario(path).plans[1].pri == 1e-6

@@ -27,6 +27,10 @@ from ..sensors import SensorTrack
 
 __all__ = ["MeasurementPlan", "Scenario", "simulate"]
 
+#: Most pulse intervals a range-difference plan may span: the simulation draws one noise term
+#: per interval (8 bytes each), and beyond int64 the interval count overflows.
+MAX_PULSE_INTERVALS = 100_000_000
+
 
 @dataclass
 class MeasurementPlan:
@@ -106,6 +110,12 @@ class MeasurementPlan:
                     f"{self.kind} from {self.sensor}: the sample times span {span:g} s, less "
                     f"than the shortest lag ({min(self.lags)} x pri {self.pri:g} s), so no "
                     "difference can be formed; sample over at least lag x pri seconds")
+            if span / self.pri > MAX_PULSE_INTERVALS:
+                raise ValueError(
+                    f"{self.kind} from {self.sensor}: the sample times span {span:g} s, "
+                    f"{span / self.pri:.3g} pulse intervals of pri {self.pri:g} s; at most "
+                    f"{MAX_PULSE_INTERVALS:.0e} (the noise has one term per interval): give "
+                    "the pulse repetition interval pri in seconds")
 
 
 def _noisy_values(plan: MeasurementPlan, rows: MeasurementSet, clean: NDArray[np.float64],
