@@ -140,3 +140,17 @@ def test_a_range_difference_plan_of_too_many_pulse_intervals_is_refused_naming_p
     assert "internal error" not in result.output and not (tmp_path / "m.csv").exists()
     path.write_text(text.replace("pri = 1.0", "pri = 1e-6"))  # 1e8 intervals: at the limit
     assert tk.load_scenario(path).plans[1].pri == 1e-6
+
+
+def test_a_planning_prior_beyond_a_states_reach_is_refused_naming_the_field(tmp_path):
+    """Once an internal OverflowError in ``tma plan`` (velocity_std = 1e300: its square)."""
+    text = (Path(tk.__file__).parent / "scenario" / "builtin" / "plan-bearings-only.toml").read_text()
+    path = tmp_path / "wide-prior.toml"
+    for field, value in (("velocity_std = 10.0", "velocity_std = 1e300"),
+                         ("position_std = 5000.0", "position_std = 1e200")):
+        path.write_text(text.replace(field, value))
+        result = CliRunner().invoke(app, ["plan", str(path), "--runs", "1", "--duration", "20",
+                                          "--particles", "50", "--no-progress"])
+        assert result.exit_code == 2, result.output
+        assert f"planning.prior.{field.split()[0]}" in result.output.replace("\n", "")
+        assert "less than or equal to" in result.output and "internal error" not in result.output

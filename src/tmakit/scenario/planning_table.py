@@ -11,6 +11,8 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from ..core.units import REACH_M, SPEED_OF_LIGHT
+
 #: Trackers a ``[planning]`` table may name (keys of :data:`tmakit.filters.FILTERS`).
 PLANNING_TRACKERS = ("pf", "ekf", "ukf")
 #: Most decisions of one run a duration may ask for (the per-step table holds a row each;
@@ -60,8 +62,9 @@ class PlannedMeasurementSpec(_Strict):
 class PriorSpec(_Strict):
     """``[planning.prior]``: the tracker's and the bound's Gaussian prior about the truth."""
 
-    position_std: float = Field(gt=0)
-    velocity_std: float = Field(gt=0)
+    # Within a state's reach (tmakit.rules): beyond, the variance overflowed (1e300 m/s).
+    position_std: float = Field(gt=0, le=REACH_M)
+    velocity_std: float = Field(gt=0, le=SPEED_OF_LIGHT)
 
 
 Vertex = Annotated[list[float], Field(min_length=2, max_length=2)]
