@@ -144,7 +144,8 @@ def test_a_range_difference_plan_of_too_many_pulse_intervals_is_refused_naming_p
 
 def test_a_planning_prior_beyond_a_states_reach_is_refused_naming_the_field(tmp_path):
     """Once an internal OverflowError in ``tma plan`` (velocity_std = 1e300: its square)."""
-    text = (Path(tk.__file__).parent / "scenario" / "builtin" / "plan-bearings-only.toml").read_text()
+    builtin = Path(tk.__file__).parent / "scenario" / "builtin"
+    text = (builtin / "plan-bearings-only.toml").read_text()
     path = tmp_path / "wide-prior.toml"
     for field, value in (("velocity_std = 10.0", "velocity_std = 1e300"),
                          ("position_std = 5000.0", "position_std = 1e200")):
