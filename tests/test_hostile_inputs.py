@@ -155,3 +155,15 @@ def test_a_planning_prior_beyond_a_states_reach_is_refused_naming_the_field(tmp_
         assert result.exit_code == 2, result.output
         assert f"planning.prior.{field.split()[0]}" in result.output.replace("\n", "")
         assert "less than or equal to" in result.output and "internal error" not in result.output
+
+
+@pytest.mark.parametrize(("key", "kind"), [("pri = 1.0", "bearing"), ("lags = [2]", "bearing"),
+                                           ("snr_db = 20.0", "bearing")])
+def test_a_key_of_another_measurement_kind_is_refused_naming_it(tmp_path, key, kind):
+    """A bearing plan's ``pri``, ``lags`` or ``snr_db`` was silently ignored (found by fuzz12)."""
+    text = (Path(tk.__file__).parent / "scenario" / "builtin" / "bearings-only-2d.toml").read_text()
+    path = tmp_path / "stray-key.toml"
+    path.write_text(text.replace("sigma = 1.0", f"sigma = 1.0\n{key}"))
+    name = key.split()[0]
+    with pytest.raises(ValueError, match=rf"{name} is a key of .* measurements only, not of {kind}"):
+        tk.load_scenario(path)

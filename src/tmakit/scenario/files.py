@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from ..core.input_files import read_toml
 from ..core.units import free_space_constant, linear_to_db
@@ -173,6 +173,17 @@ class MeasurementSpec(_Strict):
         if v not in KINDS:
             raise ValueError(f"unknown kind {v!r}; expected one of {', '.join(KINDS)}")
         return v
+
+    @model_validator(mode="after")
+    def _keys_of_its_kind(self) -> MeasurementSpec:
+        """Refuse a key another kind reads (a bearing's pri was silently ignored)."""
+        rd = KINDS[self.kind].uses_reference and not KINDS[self.kind].between_sensors
+        for key, wanted in (("pri", rd), ("lags", rd), ("snr_db", self.kind == "power")):
+            if key in self.model_fields_set and not wanted:
+                owner = "power" if key == "snr_db" else "range_difference"
+                raise ValueError(f"{key} is a key of {owner} measurements only, not of "
+                                 f"{self.kind}")
+        return self
 
 
 class ScenarioSpec(_Strict):
