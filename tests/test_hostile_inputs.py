@@ -167,3 +167,16 @@ def test_a_key_of_another_measurement_kind_is_refused_naming_it(tmp_path, key, k
     name = key.split()[0]
     with pytest.raises(ValueError, match=rf"{name} is a key of .* measurements only, not of {kind}"):
         tk.load_scenario(path)
+
+
+@pytest.mark.parametrize("snr_db", ["1e300", "-1e300"])
+def test_a_power_plan_snr_beyond_300_db_is_refused_naming_it(tmp_path, snr_db):
+    """Once an internal OverflowError in ``simulate`` and ``crlb`` (snr_db = 1e300)."""
+    text = (Path(tk.__file__).parent / "scenario" / "builtin" / "gu2007.toml").read_text()
+    path = tmp_path / "snr.toml"
+    path.write_text(text.replace("snr_db = 40.0", f"snr_db = {snr_db}"))
+    for command in (["crlb", str(path)], ["simulate", str(path), "-o", str(tmp_path / "m.csv")]):
+        result = CliRunner().invoke(app, command)
+        assert result.exit_code == 2, result.output
+        assert "expected an SNR within [-300, 300] dB" in result.output.replace("\n", " ")
+        assert "internal error" not in result.output

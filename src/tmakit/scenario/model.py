@@ -30,6 +30,8 @@ __all__ = ["MeasurementPlan", "Scenario", "simulate"]
 #: Most pulse intervals a range-difference plan may span: the simulation draws one noise term
 #: per interval (8 bytes each), and beyond int64 the interval count overflows.
 MAX_PULSE_INTERVALS = 100_000_000
+#: Largest |snr_db| of a power plan (10^30 as a power ratio).
+MAX_SNR_DB = 300.0
 
 
 @dataclass
@@ -86,6 +88,9 @@ class MeasurementPlan:
         if self.kind == "power" and self.snr_db is not None:
             if self.sigma is not None:
                 raise ValueError("power: give either snr_db or sigma, not both")
+            if not abs(self.snr_db) <= MAX_SNR_DB:  # 10^(SNR/10) overflowed at 1e300 dB
+                raise ValueError(f"power from {self.sensor}: snr_db = {self.snr_db:g}; expected "
+                                 f"an SNR within [-{MAX_SNR_DB:g}, {MAX_SNR_DB:g}] dB")
         elif self.sigma is None or not self.sigma > 0:
             raise ValueError(f"{self.kind} from {self.sensor}: sigma must be positive")
         if KINDS[self.kind].between_sensors:
