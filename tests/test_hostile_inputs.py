@@ -165,7 +165,8 @@ def test_a_key_of_another_measurement_kind_is_refused_naming_it(tmp_path, key, k
     path = tmp_path / "stray-key.toml"
     path.write_text(text.replace("sigma = 1.0", f"sigma = 1.0\n{key}"))
     name = key.split()[0]
-    with pytest.raises(ValueError, match=rf"{name} is a key of .* measurements only, not of {kind}"):
+    with pytest.raises(ValueError, match=rf"{name} is a key of .* measurements only, not of "
+                                         rf"{kind}"):
         tk.load_scenario(path)
 
 
